@@ -1,0 +1,54 @@
+#include "calib/conventions.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace shadowsg {
+
+Eigen::Vector3d EnvTexelDirection(double u, double v, int width, int height) {
+  const double phi = 2 * M_PI * (u + 0.5) / width - M_PI;
+  const double theta = M_PI * (v + 0.5) / height;
+  return {std::cos(phi) * std::sin(theta), std::sin(phi) * std::sin(theta), std::cos(theta)};
+}
+
+Eigen::Vector2d EnvDirectionToTexel(const Eigen::Vector3d& dir, int width, int height) {
+  const Eigen::Vector3d d = dir.normalized();
+  const double theta = std::acos(std::clamp(d.z(), -1.0, 1.0));
+  const double phi = std::atan2(d.y(), d.x());
+  return {(phi + M_PI) * width / (2 * M_PI) - 0.5, theta * height / M_PI - 0.5};
+}
+
+double EnvTexelSolidAngle(int v, int width, int height) {
+  const double t0 = M_PI * v / height, t1 = M_PI * (v + 1) / height;
+  return (2 * M_PI / width) * (std::cos(t0) - std::cos(t1));
+}
+
+Eigen::Matrix3d MinimalRotationToZ(const Eigen::Vector3d& normal) {
+  return Eigen::Quaterniond::FromTwoVectors(normal.normalized(), Eigen::Vector3d::UnitZ())
+      .toRotationMatrix();
+}
+
+// Our world is z-up; USD/OpenEXR lat-long is y-up. We choose the right-handed
+// mapping world (x, y, z) -> usd (y, z, x): world +z becomes usd +y (up) and
+// world +x becomes usd +z (longitude 0).
+Eigen::Vector3d WorldToUsdDirection(const Eigen::Vector3d& d) { return {d.y(), d.z(), d.x()}; }
+Eigen::Vector3d UsdToWorldDirection(const Eigen::Vector3d& d) { return {d.z(), d.x(), d.y()}; }
+
+Eigen::Vector3d UsdTexelDirection(double u, double v, int width, int height) {
+  // Latitude +pi/2 at the top row, longitude +pi at the left column, decreasing
+  // to the right; longitude 0 looks along +Z and pi/2 along +X.
+  const double lon = M_PI - 2 * M_PI * (u + 0.5) / width;
+  const double lat = M_PI / 2 - M_PI * (v + 0.5) / height;
+  return {std::sin(lon) * std::cos(lat), std::sin(lat), std::cos(lon) * std::cos(lat)};
+}
+
+Eigen::Vector3d BlenderTexelDirection(double u, double v, int width, int height) {
+  // Blender (Cycles, direction_to_equirectangular): u = -atan2(y, x) / (2 pi) + 0.5,
+  // v = atan2(z, hypot(x, y)) / pi + 0.5 with v measured from the BOTTOM row.
+  const double fu = (u + 0.5) / width, fv = 1.0 - (v + 0.5) / height;
+  const double phi = -(fu - 0.5) * 2 * M_PI;
+  const double lat = (fv - 0.5) * M_PI;
+  return {std::cos(phi) * std::cos(lat), std::sin(phi) * std::cos(lat), std::sin(lat)};
+}
+
+}  // namespace shadowsg

@@ -1,0 +1,38 @@
+#include "pipeline/cli_common.h"
+
+#include <omp.h>
+
+#include <cstdio>
+#include <memory>
+
+#include "pipeline/progress.h"
+#include "stages/io/atomic_file.h"
+
+namespace shadowsg {
+
+void AddCommonOptions(CLI::App* cmd, CommonOptions* o) {
+  cmd->add_option("--threads", o->threads, "Worker threads (default: all cores)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--seed", o->seed, "Random seed (same seed, same result)");
+  cmd->add_flag("--quiet", o->quiet, "Only errors and warnings on stderr");
+}
+
+StageContext MakeContext(const CommonOptions& o) {
+  StageContext ctx;
+  ctx.threads = o.threads > 0 ? o.threads : omp_get_num_procs();
+  omp_set_num_threads(ctx.threads);
+  ctx.seed = o.seed;
+  ctx.quiet = o.quiet;
+  const bool quiet = o.quiet;
+  ctx.progress = [quiet](const std::string& label) -> ProgressFn {
+    auto bar = std::make_shared<ProgressBar>(label, quiet);
+    return [bar](double f, const std::string& s) {
+      ThrowIfInterrupted();
+      bar->Update(f, s);
+      if (f >= 1.0) bar->Finish();
+    };
+  };
+  ctx.log = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
+  return ctx;
+}
+
+}  // namespace shadowsg

@@ -1,0 +1,31 @@
+// Spherical Gaussian lighting: G(w) = a exp(lambda (w.mu - 1)), RGB amplitude,
+// radiance units (scene-format.md, "SG lighting file"). SG algebra after
+// Wang et al. 2009 (ACM TOG 28(5):133).
+#pragma once
+
+#include <Eigen/Dense>
+#include <vector>
+
+#include "calib/image.h"
+
+namespace shadowsg {
+
+struct SgLobe {
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  // unit
+  double sharpness = 1;                             // lambda > 0
+  Eigen::Vector3d amplitude = Eigen::Vector3d::Zero();  // >= 0, radiance
+};
+
+struct SgLighting {
+  Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
+  std::vector<SgLobe> lobes;
+};
+
+Eigen::Vector3d EvalSg(const SgLobe& lobe, const Eigen::Vector3d& dir);
+Eigen::Vector3d EvalSg(const SgLighting& lighting, const Eigen::Vector3d& dir);
+// Full-sphere integral of a lobe: 2 pi a (1 - exp(-2 lambda)) / lambda.
+Eigen::Vector3d SgIntegral(const SgLobe& lobe);
+// The lighting as an H x 2H equirectangular map (texel-centre values).
+Image SgToEnvMap(const SgLighting& lighting, int height);
+
+}  // namespace shadowsg

@@ -1,0 +1,40 @@
+// Image files: EXR (OpenEXR; half or float, Y/RGB/RGBA) and 8/16-bit PNG/JPEG
+// (OpenCV). Library types stay in image_io.cc. Every writer is atomic.
+#pragma once
+
+#include <filesystem>
+
+#include "calib/image.h"
+
+namespace shadowsg {
+
+enum class ExrPixelType { kHalf, kFloat };
+
+// Reads R,G,B (and A when asked) or a single Y channel. Throws InputError
+// naming the file on any problem.
+Image ReadExr(const std::filesystem::path& path, bool keep_alpha = false);
+void WriteExr(const std::filesystem::path& path, const Image& image,
+              ExrPixelType type = ExrPixelType::kFloat);
+
+// 8- or 16-bit PNG/JPEG as values in [0, 1] (no linearisation), RGB order.
+Image ReadLdr(const std::filesystem::path& path);
+// Writes values in [0, 1] as 8-bit PNG/JPEG (clamped), RGB order.
+void WriteLdr(const std::filesystem::path& path, const Image& image);
+// 1-channel mask from a PNG: 1 where the pixel is non-zero.
+Image ReadMask(const std::filesystem::path& path);
+
+// Any supported image by extension: .exr read as linear, .png/.jpg as stored.
+Image ReadImage(const std::filesystem::path& path);
+
+// Tone-mapped preview of a linear image: scaled so that `white` maps to 1
+// (white <= 0: the 99th percentile), then the sRGB curve.
+Image ToneMap(const Image& linear, float white = 0.0f);
+void WritePreviewPng(const std::filesystem::path& path, const Image& linear, float white = 0.0f);
+// Writes `path` (.exr) and its preview beside it (same stem, .png).
+void WriteExrWithPreview(const std::filesystem::path& path, const Image& linear, float white = 0.0f);
+
+// sRGB transfer curve and its inverse (IEC 61966-2-1).
+float SrgbEncode(float linear);
+float SrgbDecode(float encoded);
+
+}  // namespace shadowsg

@@ -1,0 +1,24 @@
+// Lighting files. `lighting.json` ("format": "sg-lighting/1", scene-format.md)
+// holds SG lobes; an `.exr` is an equirectangular radiance map; a
+// "lights/1" JSON describes analytic suns and area lights for synthesis:
+//   {"format": "lights/1",
+//    "suns":  [{"direction": [x,y,z], "irradiance": [r,g,b], "angular_radius_deg": 0.5}],
+//    "areas": [{"centre": [..], "half_u": [..], "half_v": [..], "radiance": [r,g,b]}],
+//    "env": "map.exr", "env_scale": 1.0, "lobes": [ ...SG lobes... ]}
+#pragma once
+
+#include <filesystem>
+
+#include "solver/lights.h"
+#include "solver/sg.h"
+#include "stages/io/json_util.h"
+
+namespace shadowsg {
+
+LightSet ReadLighting(const std::filesystem::path& path);
+SgLighting ParseSgLighting(const JsonReader& doc);
+LightSet ParseLights(const JsonReader& doc, const std::filesystem::path& base_dir);
+Json SgLightingToJson(const SgLighting& lighting);
+void WriteSgLighting(const std::filesystem::path& path, const SgLighting& lighting);
+
+}  // namespace shadowsg

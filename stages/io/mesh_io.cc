@@ -1,0 +1,200 @@
+#include "stages/io/mesh_io.h"
+
+#include <tiny_obj_loader.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <vector>
+
+#include "calib/error.h"
+#include "stages/io/atomic_file.h"
+
+namespace shadowsg {
+namespace fs = std::filesystem;
+
+namespace {
+
+void Validate(const TriangleMesh& mesh, const std::string& name) {
+  if (mesh.vertices.empty()) throw InputError(name, "mesh has no vertices");
+  if (mesh.faces.empty()) throw InputError(name, "mesh has no faces");
+  for (const auto& v : mesh.vertices)
+    if (!v.allFinite()) throw InputError(name, "mesh has a non-finite vertex coordinate");
+  const int n = static_cast<int>(mesh.vertices.size());
+  for (const auto& f : mesh.faces)
+    for (int k = 0; k < 3; ++k)
+      if (f[k] < 0 || f[k] >= n) throw InputError(name, "face refers to vertex " + std::to_string(f[k]) +
+                                                             " of " + std::to_string(n));
+}
+
+}  // namespace
+
+TriangleMesh ReadObj(std::istream& in, const std::string& name) {
+  tinyobj::attrib_t attrib;
+  std::vector<tinyobj::shape_t> shapes;
+  std::vector<tinyobj::material_t> materials;
+  std::string warn, err;
+  // No material reader: a scene's OBJ needs no .mtl, and a missing one must not fail.
+  const bool ok = tinyobj::LoadObj(&attrib, &shapes, &materials, &warn, &err, &in, nullptr, true);
+  if (!ok) throw InputError(name, "unreadable OBJ: " + err);
+  TriangleMesh mesh;
+  const size_t nv = attrib.vertices.size() / 3;
+  mesh.vertices.resize(nv);
+  for (size_t i = 0; i < nv; ++i)
+    mesh.vertices[i] = Eigen::Vector3d(attrib.vertices[3 * i], attrib.vertices[3 * i + 1], attrib.vertices[3 * i + 2]);
+  for (const auto& s : shapes) {
+    size_t offset = 0;
+    for (size_t f = 0; f < s.mesh.num_face_vertices.size(); ++f) {
+      const int n = s.mesh.num_face_vertices[f];
+      if (n == 3)
+        mesh.faces.emplace_back(s.mesh.indices[offset].vertex_index, s.mesh.indices[offset + 1].vertex_index,
+                                s.mesh.indices[offset + 2].vertex_index);
+      offset += n;
+    }
+  }
+  Validate(mesh, name);
+  return mesh;
+}
+
+namespace {
+
+enum class PlyFormat { kAscii, kBinaryLE, kBinaryBE };
+
+struct PlyProperty {
+  std::string name, type, count_type;  // count_type non-empty for lists
+};
+struct PlyElement {
+  std::string name;
+  long count = 0;
+  std::vector<PlyProperty> props;
+};
+
+int TypeSize(const std::string& t, const std::string& name) {
+  if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
+  if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
+  if (t == "int" || t == "uint" || t == "float" || t == "int32" || t == "uint32" || t == "float32") return 4;
+  if (t == "double" || t == "float64") return 8;
+  throw InputError(name, "unknown PLY property type '" + t + "'");
+}
+
+double ReadBinary(std::istream& in, const std::string& t, bool big_endian, const std::string& name) {
+  const int size = TypeSize(t, name);
+  unsigned char b[8];
+  if (!in.read(reinterpret_cast<char*>(b), size)) throw InputError(name, "PLY body is truncated");
+  if (big_endian) std::reverse(b, b + size);
+  if (t == "char" || t == "int8") return static_cast<int8_t>(b[0]);
+  if (t == "uchar" || t == "uint8") return b[0];
+  if (t == "short" || t == "int16") { int16_t v; std::memcpy(&v, b, 2); return v; }
+  if (t == "ushort" || t == "uint16") { uint16_t v; std::memcpy(&v, b, 2); return v; }
+  if (t == "int" || t == "int32") { int32_t v; std::memcpy(&v, b, 4); return v; }
+  if (t == "uint" || t == "uint32") { uint32_t v; std::memcpy(&v, b, 4); return v; }
+  if (t == "float" || t == "float32") { float v; std::memcpy(&v, b, 4); return v; }
+  double v;
+  std::memcpy(&v, b, 8);
+  return v;
+}
+
+}  // namespace
+
+TriangleMesh ReadPly(std::istream& in, const std::string& name) {
+  std::string line;
+  if (!std::getline(in, line) || line.rfind("ply", 0) != 0) throw InputError(name, "not a PLY file (no 'ply' magic)");
+  PlyFormat format = PlyFormat::kAscii;
+  std::vector<PlyElement> elements;
+  bool header_done = false;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    std::istringstream ls(line);
+    std::string word;
+    ls >> word;
+    if (word == "format") {
+      std::string f;
+      ls >> f;
+      if (f == "ascii") format = PlyFormat::kAscii;
+      else if (f == "binary_little_endian") format = PlyFormat::kBinaryLE;
+      else if (f == "binary_big_endian") format = PlyFormat::kBinaryBE;
+      else throw InputError(name, "unknown PLY format '" + f + "'");
+    } else if (word == "element") {
+      PlyElement e;
+      ls >> e.name >> e.count;
+      if (!ls || e.count < 0 || e.count > (1L << 31)) throw InputError(name, "bad PLY element line: " + line);
+      elements.push_back(e);
+    } else if (word == "property") {
+      if (elements.empty()) throw InputError(name, "PLY property before any element");
+      PlyProperty p;
+      std::string t;
+      ls >> t;
+      if (t == "list") ls >> p.count_type >> p.type >> p.name;
+      else { p.type = t; ls >> p.name; }
+      elements.back().props.push_back(p);
+    } else if (word == "end_header") {
+      header_done = true;
+      break;
+    }
+  }
+  if (!header_done) throw InputError(name, "PLY header has no end_header");
+  TriangleMesh mesh;
+  for (const auto& e : elements) {
+    for (long i = 0; i < e.count; ++i) {
+      std::vector<double> scalars;
+      std::vector<long> list;
+      std::istringstream row;
+      if (format == PlyFormat::kAscii) {
+        if (!std::getline(in, line)) throw InputError(name, "PLY body is truncated");
+        row.str(line);
+      }
+      auto next = [&](const std::string& t) {
+        if (format != PlyFormat::kAscii) return ReadBinary(in, t, format == PlyFormat::kBinaryBE, name);
+        double v;
+        if (!(row >> v)) throw InputError(name, "PLY row is short or not numeric: " + line);
+        return v;
+      };
+      Eigen::Vector3d xyz = Eigen::Vector3d::Zero();
+      for (const auto& p : e.props) {
+        if (!p.count_type.empty()) {
+          const double n = next(p.count_type);
+          if (n < 0 || n > 1024) throw InputError(name, "PLY list of unreasonable length");
+          std::vector<long> vals;
+          for (int k = 0; k < static_cast<int>(n); ++k) vals.push_back(static_cast<long>(next(p.type)));
+          if (p.name == "vertex_indices" || p.name == "vertex_index") list = vals;
+        } else {
+          const double v = next(p.type);
+          if (p.name == "x") xyz.x() = v;
+          if (p.name == "y") xyz.y() = v;
+          if (p.name == "z") xyz.z() = v;
+        }
+      }
+      if (e.name == "vertex") mesh.vertices.push_back(xyz);
+      if (e.name == "face")
+        for (size_t k = 2; k < list.size(); ++k)  // fan triangulation
+          mesh.faces.emplace_back(static_cast<int>(list[0]), static_cast<int>(list[k - 1]), static_cast<int>(list[k]));
+    }
+  }
+  Validate(mesh, name);
+  return mesh;
+}
+
+TriangleMesh ReadMesh(const fs::path& path) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) throw InputError(path.string(), "mesh file not found");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path.string(), "cannot open mesh file");
+  std::string ext = path.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+  if (ext == ".obj") return ReadObj(in, path.string());
+  if (ext == ".ply") return ReadPly(in, path.string());
+  throw InputError(path.string(), "unsupported mesh type '" + ext + "' (expected .obj or .ply)");
+}
+
+void WriteObj(const fs::path& path, const TriangleMesh& mesh) {
+  std::ostringstream out;
+  out.precision(9);
+  for (const auto& v : mesh.vertices) out << "v " << v.x() << ' ' << v.y() << ' ' << v.z() << '\n';
+  for (const auto& f : mesh.faces) out << "f " << f[0] + 1 << ' ' << f[1] + 1 << ' ' << f[2] + 1 << '\n';
+  WriteTextAtomically(path, out.str());
+}
+
+}  // namespace shadowsg

@@ -1,0 +1,30 @@
+// Registered-scene folders (scene-format.md): scene.json, image, meshes,
+// optional sphere trees, mask, ground-truth env map and insertion image.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include "solver/scene.h"
+#include "stages/io/json_util.h"
+
+namespace shadowsg {
+
+struct SceneLoadOptions {
+  bool require_image = true;  // false for tools that only render the scene's geometry
+  bool load_extras = true;    // mask, env_gt, image_virtual_objs
+};
+
+Scene LoadScene(const std::filesystem::path& dir, const SceneLoadOptions& options = {});
+
+// The parts of scene.json that do not need other files (camera, plane,
+// object poses and paths); `file` names the document in errors.
+Camera ParseCamera(const JsonReader& camera);
+Plane ParsePlane(const JsonReader& plane);
+
+Json CameraToJson(const Camera& camera);
+Json PlaneToJson(const Plane& plane);
+// scene.json for a scene whose meshes are at the objects' mesh_path.
+Json SceneToJson(const Scene& scene);
+
+}  // namespace shadowsg
