@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# Configures and builds shadowsg into build/ (or $1 with extra CMake flags).
+# Incremental: a second run only rebuilds what changed.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+dir=${1:-build}
+shift || true
+launcher=()
+command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+if [ ! -f "$dir/build.ninja" ]; then
+  cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Release "${launcher[@]}" "$@"
+fi
+cmake --build "$dir" -j "$(nproc)"

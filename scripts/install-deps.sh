@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# Installs the Debian packages shadowsg builds and runs with. Idempotent: does
+# nothing when everything is already installed.
+set -euo pipefail
+PKGS=(cmake ninja-build g++ pkg-config ccache
+      libeigen3-dev libopencv-dev libembree-dev libopenexr-dev libimath-dev libceres-dev
+      nlohmann-json3-dev libcli11-dev libtinyobjloader-dev libraw-dev libapriltag-dev
+      libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox colmap)
+missing=()
+for p in "${PKGS[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#PKGS[@]} packages present"
+  exit 0
+fi
+echo "install-deps: installing ${missing[*]}"
+SUDO=""
+[ "$(id -u)" -eq 0 ] || SUDO="sudo"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -q
+$SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"

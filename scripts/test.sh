@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# One command on a fresh Debian machine: install dependencies, build, run the
+# whole test suite, then build and run it again under AddressSanitizer and
+# UndefinedBehaviorSanitizer (skip that with --no-sanitize).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+sanitize=1
+[ "${1:-}" = "--no-sanitize" ] && sanitize=0
+bash scripts/install-deps.sh
+bash scripts/build.sh build
+(cd build && ctest --output-on-failure -j 2 --timeout 900)
+if [ "$sanitize" = 1 ]; then
+  bash scripts/build.sh build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSHADOWSG_SANITIZE=ON -DSHADOWSG_BUILD_BENCHMARKS=OFF
+  # Embree's and OpenMP's own allocations are not ours: leaks are not checked
+  # here (LeakSanitizer), addressing and undefined behaviour are.
+  (cd build-asan && ASAN_OPTIONS=detect_leaks=0 UBSAN_OPTIONS=print_stacktrace=1 \
+     ctest --output-on-failure -j 2 --timeout 1800 -LE slow)
+fi
