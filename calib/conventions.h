@@ -18,6 +18,13 @@ inline Eigen::Vector2d ColmapToOpenCvPixel(const Eigen::Vector2d& p) {
 inline Eigen::Vector2d OpenCvToColmapPixel(const Eigen::Vector2d& p) {
   return p + Eigen::Vector2d::Constant(kColmapPixelShift);
 }
+// libapriltag 3 reports tag corners and centres with the first pixel's centre
+// at (0.5, 0.5) too: corners of tags rendered through our camera model come
+// back offset by (+0.50, +0.50) px (tests/pose_test.cc).
+inline constexpr double kAprilTagPixelShift = 0.5;
+inline Eigen::Vector2d AprilTagToOpenCvPixel(const Eigen::Vector2d& p) {
+  return p - Eigen::Vector2d::Constant(kAprilTagPixelShift);
+}
 
 // ---- Environment maps (scene-format.md) -------------------------------------
 // Equirectangular, width = 2 * height, pole = world +z. Texel (u, v) looks along

@@ -7,5 +7,13 @@
 namespace shadowsg {
 
 void RegisterInfoCommand(CLI::App& app);
+void RegisterSolveCommand(CLI::App& app);
+void RegisterRenderCommand(CLI::App& app);
+void RegisterSynthCommand(CLI::App& app);
+void RegisterDemoCommand(CLI::App& app);
+void RegisterSphereTreeCommand(CLI::App& app);
+void RegisterIntrinsicsCommand(CLI::App& app);
+void RegisterLinearizeCommand(CLI::App& app);
+void RegisterPoseCommand(CLI::App& app);
 
 }  // namespace shadowsg

@@ -14,6 +14,14 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", "shadowsg 0.1.0");
   RegisterInfoCommand(app);
+  RegisterSolveCommand(app);
+  RegisterRenderCommand(app);
+  RegisterSynthCommand(app);
+  RegisterDemoCommand(app);
+  RegisterSphereTreeCommand(app);
+  RegisterIntrinsicsCommand(app);
+  RegisterLinearizeCommand(app);
+  RegisterPoseCommand(app);
 
   InstallInterruptHandlers();
   try {

@@ -32,6 +32,11 @@ struct AreaLight {
   double Area() const { return 4 * half_u.cross(half_v).norm(); }
 };
 
+// Ray parameter t > 0 where origin + t dir meets the light's emitting (front)
+// side; nullopt when it misses or sees the back.
+std::optional<double> IntersectAreaLight(const AreaLight& light, const Eigen::Vector3d& origin,
+                                         const Eigen::Vector3d& dir);
+
 // Everything that lights a scene; any combination may be present.
 struct LightSet {
   std::optional<SgLighting> sg;

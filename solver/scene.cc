@@ -1,5 +1,6 @@
 #include "solver/scene.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "calib/conventions.h"
@@ -9,6 +10,22 @@ namespace shadowsg {
 bool PlaneRectContains(const Plane& plane, const Eigen::Vector3d& p) {
   const Eigen::Vector3d local = MinimalRotationToZ(plane.normal) * (p - plane.xyz);
   return std::abs(local.x()) <= plane.scale.x() && std::abs(local.y()) <= plane.scale.y();
+}
+
+Eigen::Vector3d PlaneAlbedo(const Plane& plane, const Eigen::Vector3d& p) {
+  if (!plane.albedo_texture || plane.albedo_texture->empty()) return plane.diffuse;
+  const Image& tex = *plane.albedo_texture;
+  const Eigen::Vector3d local = MinimalRotationToZ(plane.normal) * (p - plane.xyz);
+  // Texel centres at integers, as for camera pixels.
+  const double fu = std::clamp((local.x() / plane.scale.x() + 1) / 2 * tex.width - 0.5, 0.0, tex.width - 1.0);
+  const double fv = std::clamp((1 - local.y() / plane.scale.y()) / 2 * tex.height - 0.5, 0.0, tex.height - 1.0);
+  const int u0 = static_cast<int>(fu), v0 = static_cast<int>(fv);
+  const int u1 = std::min(u0 + 1, tex.width - 1), v1 = std::min(v0 + 1, tex.height - 1);
+  const double au = fu - u0, av = fv - v0;
+  auto texel = [&](int u, int v) -> Eigen::Vector3d { return tex.rgb(tex.index(u, v)).cast<double>(); };
+  const Eigen::Vector3d t = (1 - av) * ((1 - au) * texel(u0, v0) + au * texel(u1, v0)) +
+                            av * ((1 - au) * texel(u0, v1) + au * texel(u1, v1));
+  return plane.diffuse.cwiseProduct(t);
 }
 
 std::optional<double> IntersectPlane(const Plane& plane, const Eigen::Vector3d& origin,

@@ -20,10 +20,19 @@ struct Plane {
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // unit, towards camera and lights
   Eigen::Vector3d scale = Eigen::Vector3d(1, 1, 1);   // half extents in the plane frame
   Eigen::Vector3d diffuse = Eigen::Vector3d::Constant(0.8);  // Lambertian albedo
+  // Optional albedo texture (linear RGB, multiplies `diffuse`), stretched over
+  // the rectangle: column 0 at local x = -scale[0], row 0 at local y = +scale[1]
+  // (the image reads as the plane seen from above its normal). texture_path is
+  // the file as written in scene.json ("plane": {"texture": ...}).
+  std::optional<Image> albedo_texture;
+  std::string texture_path;
 };
 
 // True when p (on the plane) lies inside the plane's rectangle.
 bool PlaneRectContains(const Plane& plane, const Eigen::Vector3d& p);
+// Albedo at plane point p: diffuse, times the texture (bilinear, clamped at
+// the rectangle's border) when there is one.
+Eigen::Vector3d PlaneAlbedo(const Plane& plane, const Eigen::Vector3d& p);
 // Ray parameter of the hit with the infinite plane (nullopt if parallel or behind).
 std::optional<double> IntersectPlane(const Plane& plane, const Eigen::Vector3d& origin,
                                      const Eigen::Vector3d& dir);

@@ -113,6 +113,28 @@ Json SgLightingToJson(const SgLighting& lighting) {
   return j;
 }
 
+Json LightsToJson(const LightSet& lights, const std::string& env_file) {
+  Json j{{"format", "lights/1"}};
+  if (!lights.suns.empty()) {
+    j["suns"] = Json::array();
+    for (const auto& s : lights.suns)
+      j["suns"].push_back(Json{{"direction", ToJson(s.direction)},
+                               {"irradiance", ToJson(s.irradiance)},
+                               {"angular_radius_deg", s.angular_radius * 180 / M_PI}});
+  }
+  if (!lights.areas.empty()) {
+    j["areas"] = Json::array();
+    for (const auto& a : lights.areas)
+      j["areas"].push_back(Json{{"centre", ToJson(a.centre)},
+                                {"half_u", ToJson(a.half_u)},
+                                {"half_v", ToJson(a.half_v)},
+                                {"radiance", ToJson(a.radiance)}});
+  }
+  if (lights.env && !env_file.empty()) j["env"] = env_file;
+  if (lights.sg) j["lobes"] = SgLightingToJson(*lights.sg)["lobes"];
+  return j;
+}
+
 void WriteSgLighting(const fs::path& path, const SgLighting& lighting) {
   WriteJsonFile(path, SgLightingToJson(lighting));
 }

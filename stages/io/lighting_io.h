@@ -19,6 +19,9 @@ LightSet ReadLighting(const std::filesystem::path& path);
 SgLighting ParseSgLighting(const JsonReader& doc);
 LightSet ParseLights(const JsonReader& doc, const std::filesystem::path& base_dir);
 Json SgLightingToJson(const SgLighting& lighting);
+// A LightSet as "lights/1" (inverse of ParseLights); the env map, if any, is
+// referred to as `env_file` (relative to the JSON), which the caller writes.
+Json LightsToJson(const LightSet& lights, const std::string& env_file = "");
 void WriteSgLighting(const std::filesystem::path& path, const SgLighting& lighting);
 
 }  // namespace shadowsg

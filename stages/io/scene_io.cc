@@ -1,5 +1,6 @@
 #include "stages/io/scene_io.h"
 
+#include <cctype>
 #include <cmath>
 
 #include "calib/error.h"
@@ -76,7 +77,24 @@ Plane ParsePlane(const JsonReader& r) {
   if (p.scale.x() <= 0 || p.scale.y() <= 0) r.Fail("scale", "half extents must be positive");
   if (r.Has("diffuse")) p.diffuse = r.Vec3("diffuse");
   if ((p.diffuse.array() < 0).any()) r.Fail("diffuse", "albedo must be non-negative");
+  p.texture_path = r.String("texture", "");
   return p;
+}
+
+Image ReadPlaneTexture(const fs::path& path) {
+  std::string ext = path.extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  Image tex = ReadImage(path);
+  if (ext != ".exr")  // 8/16-bit files hold sRGB-encoded albedo
+    for (float& v : tex.data) v = SrgbDecode(v);
+  if (tex.channels < 3) {
+    Image rgb(tex.width, tex.height, 3);
+    for (size_t i = 0; i < rgb.pixels(); ++i) rgb.set_rgb(i, tex.rgb(i));
+    tex = std::move(rgb);
+  }
+  for (float v : tex.data)
+    if (!std::isfinite(v) || v < 0) throw InputError(path.string(), "albedo texture has negative or non-finite texels");
+  return tex;
 }
 
 Scene LoadScene(const fs::path& dir, const SceneLoadOptions& options) {
@@ -92,6 +110,7 @@ Scene LoadScene(const fs::path& dir, const SceneLoadOptions& options) {
   if (scene.name.empty()) scene.name = fs::absolute(dir).lexically_normal().parent_path().filename().string();
   scene.camera = ParseCamera(root.Child("camera"));
   scene.plane = ParsePlane(root.Child("plane"));
+  if (!scene.plane.texture_path.empty()) scene.plane.albedo_texture = ReadPlaneTexture(dir / scene.plane.texture_path);
 
   const JsonReader objects = root.Child("objects");
   if (objects.Size() == 0) root.Fail("objects", "no objects: a scene needs a shadow caster");
@@ -198,8 +217,10 @@ Json CameraToJson(const Camera& c) {
 }
 
 Json PlaneToJson(const Plane& p) {
-  return Json{{"xyz", ToJson(p.xyz)}, {"normal", ToJson(p.normal)}, {"scale", ToJson(p.scale)},
-              {"diffuse", ToJson(p.diffuse)}};
+  Json j{{"xyz", ToJson(p.xyz)}, {"normal", ToJson(p.normal)}, {"scale", ToJson(p.scale)},
+         {"diffuse", ToJson(p.diffuse)}};
+  if (!p.texture_path.empty()) j["texture"] = p.texture_path;
+  return j;
 }
 
 Json SceneToJson(const Scene& scene) {

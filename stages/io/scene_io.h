@@ -20,7 +20,9 @@ Scene LoadScene(const std::filesystem::path& dir, const SceneLoadOptions& option
 // The parts of scene.json that do not need other files (camera, plane,
 // object poses and paths); `file` names the document in errors.
 Camera ParseCamera(const JsonReader& camera);
-Plane ParsePlane(const JsonReader& plane);
+Plane ParsePlane(const JsonReader& plane);  // texture_path only; LoadScene reads the texture
+// A plane albedo texture: EXR as linear, PNG/JPEG as sRGB-encoded (decoded to linear).
+Image ReadPlaneTexture(const std::filesystem::path& path);
 
 Json CameraToJson(const Camera& camera);
 Json PlaneToJson(const Plane& plane);

@@ -1,0 +1,54 @@
+#include "solver/sg_shading.h"
+
+#include <cmath>
+
+#include "solver/cosine_integral.h"
+
+namespace shadowsg {
+
+ProductLobe EvalProductLobe(const Eigen::Vector3d& mu, double lambda, const Eigen::Vector3d& n, CosineModel cosine) {
+  ProductLobe p;
+  const Eigen::Vector3d v = lambda * mu + kCosineLobeSharpness * n;
+  const double lp = v.norm();
+  p.lambda_prime = lp;
+  const double e = std::exp(lp - lambda - kCosineLobeSharpness);
+  const double em = std::exp(-lp);
+  const double f = 2 * M_PI * (1 - em) / lp;                 // hemisphere integral factor
+  const double df = 2 * M_PI * (lp * em - (1 - em)) / (lp * lp);  // d f / d lambda'
+  p.scale = kCosineLobeAmplitude * e * f;
+  p.dlambda_prime_dlambda = v.dot(mu) / lp;
+  p.dlambda_prime_dmu = lambda * v / lp;
+  // d scale / d lambda' = a_c e (f + df); d scale / d lambda (explicit) = -scale.
+  const double ds_dlp = kCosineLobeAmplitude * e * (f + df);
+  p.dscale_dlambda = ds_dlp * p.dlambda_prime_dlambda - p.scale;
+  p.dscale_dmu = ds_dlp * p.dlambda_prime_dmu;
+  if (cosine == CosineModel::kExact) {
+    const CosineIntegral ci = SgCosineIntegral(lambda, mu.dot(n));
+    p.scale = ci.value;
+    p.dscale_dlambda = ci.dlambda;
+    p.dscale_dmu = ci.dc * n;
+  }
+  return p;
+}
+
+LobeShading ShadeLobe(const ProductLobe& p, double theta, const Eigen::Vector3d& dtheta_dmu) {
+  LobeShading s;
+  if (!std::isfinite(theta)) {  // no occluder at all: fully visible
+    s.sigma = 1;
+    s.value = p.scale;
+    s.dvalue_dlambda = p.dscale_dlambda;
+    s.dvalue_dmu = p.dscale_dmu;
+    return s;
+  }
+  const double k = VisibilitySteepness(p.lambda_prime);
+  const double dk = VisibilitySteepnessDerivative(p.lambda_prime);
+  const double z = k * theta;
+  s.sigma = z >= 0 ? 1 / (1 + std::exp(-z)) : std::exp(z) / (1 + std::exp(z));
+  const double dsig_dz = s.sigma * (1 - s.sigma);
+  s.value = p.scale * s.sigma;
+  s.dvalue_dlambda = p.dscale_dlambda * s.sigma + p.scale * dsig_dz * dk * p.dlambda_prime_dlambda * theta;
+  s.dvalue_dmu = p.dscale_dmu * s.sigma + p.scale * dsig_dz * (dk * theta * p.dlambda_prime_dmu + k * dtheta_dmu);
+  return s;
+}
+
+}  // namespace shadowsg

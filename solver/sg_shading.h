@@ -1,0 +1,61 @@
+// The closed-form shadow-plane shading of one SG lobe at one plane point
+// (ShadowSG Sec. 3.2, method-notes.md "The forward model"), with analytic
+// derivatives. Everything here is per unit amplitude and per unit albedo/pi:
+//   L_o(x) = albedo/pi * sum_i a_i * Shading_i(x).
+#pragma once
+
+#include <Eigen/Dense>
+
+namespace shadowsg {
+
+// Clamped cosine as one SG, max(n.w, 0) ~ a_c exp(lambda_c (w.n - 1))
+// (Wang et al. 2009, ACM TOG 28(5):133; the values ShadowSG uses).
+inline constexpr double kCosineLobeSharpness = 2.133;
+inline constexpr double kCosineLobeAmplitude = 1.170;
+// Sigmoid steepness k(x) = k3 x^3 + k2 x^2 + k1 x + k0 of the soft visibility
+// (Wang 2009; ShadowSG data/k_coeffs_wang.txt), evaluated at lambda'.
+inline constexpr double kVisibilityK3 = 0.204;
+inline constexpr double kVisibilityK2 = -0.892;
+inline constexpr double kVisibilityK1 = 2.995;
+inline constexpr double kVisibilityK0 = 0.067;
+
+inline double VisibilitySteepness(double x) {
+  return ((kVisibilityK3 * x + kVisibilityK2) * x + kVisibilityK1) * x + kVisibilityK0;
+}
+inline double VisibilitySteepnessDerivative(double x) {
+  return (3 * kVisibilityK3 * x + 2 * kVisibilityK2) * x + kVisibilityK1;
+}
+
+// How the unoccluded integral of a lobe against the clamped cosine is taken:
+// the paper's product with the cosine SG (hemisphere integral about the
+// product axis, as the reference code), or exactly (solver/cosine_integral.h).
+enum class CosineModel { kSgProduct, kExact };
+
+// Unoccluded irradiance factor of the product lobe G_i * G_c, per unit
+// amplitude: a_c exp(lambda' - lambda - lambda_c) 2 pi (1 - exp(-lambda')) / lambda'
+// with lambda' = |lambda mu + lambda_c n| (the reference code's form).
+struct ProductLobe {
+  double lambda_prime = 0;
+  double scale = 0;
+  // Derivatives (mu treated as a free 3-vector evaluated at |mu| = 1).
+  double dlambda_prime_dlambda = 0;
+  Eigen::Vector3d dlambda_prime_dmu = Eigen::Vector3d::Zero();
+  double dscale_dlambda = 0;
+  Eigen::Vector3d dscale_dmu = Eigen::Vector3d::Zero();
+};
+// With CosineModel::kExact, `scale` and its derivatives are the exact
+// integral; lambda' (which sets the shadow's softness) stays as above.
+ProductLobe EvalProductLobe(const Eigen::Vector3d& mu, double lambda, const Eigen::Vector3d& normal,
+                            CosineModel cosine = CosineModel::kSgProduct);
+
+// Shading of one lobe at one point given theta (signed angle from mu to the
+// nearest occluder boundary) and its gradient with respect to mu.
+struct LobeShading {
+  double value = 0;            // scale * sigma
+  double sigma = 0;
+  double dvalue_dlambda = 0;
+  Eigen::Vector3d dvalue_dmu = Eigen::Vector3d::Zero();
+};
+LobeShading ShadeLobe(const ProductLobe& product, double theta, const Eigen::Vector3d& dtheta_dmu);
+
+}  // namespace shadowsg

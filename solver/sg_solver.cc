@@ -1,0 +1,555 @@
+#include "solver/sg_solver.h"
+
+#include <ceres/ceres.h>
+#include <ceres/manifold.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+#include <random>
+
+#include "calib/error.h"
+#include "solver/sg_paper_solver.h"
+#include "solver/nnls.h"
+#include "solver/sg_shading.h"
+
+namespace shadowsg {
+
+SgSolverOptions SgSolverOptions::Budget(const std::string& name) {
+  SgSolverOptions o;
+  if (name == "fast") {
+    o.dictionary_axes = 160;
+    o.sharpness = {4, 15, 60, 250};
+    o.fit_pixels = 6000;
+    o.holdout_pixels = 2000;
+    o.max_lobes = 16;
+    o.refine_iterations = 8;
+    o.path_refine_iterations = 4;
+  } else if (name == "best") {
+    o.dictionary_axes = 600;
+    o.sharpness = {2, 4, 8, 16, 32, 64, 128, 256, 600};
+    o.fit_pixels = 40000;
+    o.holdout_pixels = 10000;
+    o.max_lobes = 48;
+    o.refine_iterations = 50;
+    o.path_refine_iterations = 12;
+  }
+  return o;
+}
+
+bool SgSolverOptions::IsValid(std::string* error) const {
+  auto fail = [&](const std::string& e) {
+    if (error) *error = e;
+    return false;
+  };
+  if (lobes < 0 || lobes > 1000) return fail("lobes must be in 0..1000");
+  if (max_lobes < 1) return fail("max_lobes must be >= 1");
+  if (dictionary_axes < 1) return fail("dictionary_axes must be >= 1");
+  if (sharpness.empty()) return fail("sharpness ladder is empty");
+  for (double s : sharpness)
+    if (!(s > 0)) return fail("sharpness values must be positive");
+  if (fit_pixels < 16 || holdout_pixels < 16) return fail("fit and held-out sets need >= 16 pixels");
+  if (!(size_tolerance >= 0)) return fail("size_tolerance must be >= 0");
+  if (refine_iterations < 0) return fail("refine_iterations must be >= 0");
+  return true;
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double Since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// Bounds of the refined sharpness: wider than a hemisphere, sharper than any
+// shadow the sigmoid can tell apart from a hard one at image resolution.
+constexpr double kMinSharpness = 0.05;
+constexpr double kMaxSharpness = 5000;
+
+// A lobe giving the unoccluded plane less than this fraction of the light is
+// dropped; held-out errors closer to the best than kSizeNoiseFloor times the
+// mean squared signal count as equal (noise-free scenes would otherwise keep
+// lobes that gain 100 dB on 110).
+constexpr double kNegligibleLight = 1e-4;
+constexpr double kSizeNoiseFloor = 1e-6;
+
+// Importance of a pixel for the fit: 1 on the lit plane, up to
+// kShadowEmphasis in full shadow (relative drop below the lit level).
+constexpr double kShadowEmphasis = 4.0;
+
+template <typename T>
+std::vector<T> Gather(const std::vector<T>& v, const std::vector<size_t>& idx);
+
+struct PixelSets {
+  std::vector<size_t> fit, holdout;
+  std::vector<double> weight;  // per fit pixel, mean 1
+};
+
+PixelSets SamplePixels(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3f>& targets,
+                       const SgSolverOptions& o, std::mt19937_64& rng) {
+  const size_t n = model.points.size();
+  PixelSets s;
+  // Held-out: uniform without replacement.
+  std::vector<size_t> all(n);
+  std::iota(all.begin(), all.end(), 0);
+  std::shuffle(all.begin(), all.end(), rng);
+  const size_t nh = std::min<size_t>(o.holdout_pixels, n / 5 + 1);
+  s.holdout.assign(all.begin(), all.begin() + nh);
+  std::vector<size_t> rest(all.begin() + nh, all.end());
+  // Lit level: a high percentile of the albedo-normalised radiance.
+  std::vector<double> level(rest.size());
+  for (size_t k = 0; k < rest.size(); ++k) {
+    const size_t i = rest[k];
+    level[k] = targets[i].sum() / std::max(1e-12f, model.albedo[i].sum());
+  }
+  std::vector<double> sorted = level;
+  const size_t q = static_cast<size_t>(0.95 * (sorted.size() - 1));
+  std::nth_element(sorted.begin(), sorted.begin() + q, sorted.end());
+  const double lit = std::max(1e-12, sorted[q]);
+  std::vector<double> importance(rest.size());
+  for (size_t k = 0; k < rest.size(); ++k)
+    importance[k] = 1 + (kShadowEmphasis - 1) * std::clamp(1 - level[k] / lit, 0.0, 1.0);
+  const size_t nf = std::min<size_t>(o.fit_pixels, rest.size());
+  if (nf == rest.size()) {
+    s.fit = rest;
+    s.weight.assign(nf, 1.0);
+    return s;
+  }
+  // Systematic sampling proportional to importance (deterministic given the
+  // shuffled order), weight = 1 / inclusion probability, normalised to mean 1.
+  const double total = std::accumulate(importance.begin(), importance.end(), 0.0);
+  const double step = total / nf;
+  double next = step * std::uniform_real_distribution<double>(0, 1)(rng), acc = 0;
+  for (size_t k = 0; k < rest.size() && s.fit.size() < nf; ++k) {
+    acc += importance[k];
+    if (acc > next) {
+      s.fit.push_back(rest[k]);
+      s.weight.push_back(1.0 / importance[k]);
+      next += step;
+    }
+  }
+  const double mean = std::accumulate(s.weight.begin(), s.weight.end(), 0.0) / s.weight.size();
+  for (double& w : s.weight) w /= mean;
+  return s;
+}
+
+struct Atom {
+  int axis;
+  double lambda;
+};
+
+// Column of an atom: shading per unit amplitude and unit albedo/pi.
+void AtomColumn(const ShadowPlaneModel& model, const Eigen::MatrixXf& theta, const Atom& atom,
+                const Eigen::Vector3d& axis, float* out) {
+  const ProductLobe p = EvalProductLobe(axis, atom.lambda, model.normal, model.cosine);
+  const double k = VisibilitySteepness(p.lambda_prime);
+  for (long r = 0; r < theta.rows(); ++r) {
+    const double z = k * theta(r, atom.axis);
+    const double sigma = !std::isfinite(z) ? (z > 0 ? 1.0 : 0.0) : 1 / (1 + std::exp(-z));
+    out[r] = static_cast<float>(p.scale * sigma);
+  }
+}
+
+// The Ceres problem of the refinement: one residual block over every fit pixel
+// and channel, parameter blocks per lobe: axis (3, on the sphere),
+// log-sharpness (1), amplitude (3, >= 0).
+class RefineCost final : public ceres::CostFunction {
+ public:
+  // Residuals over every point of `model`; targets in the same order.
+  RefineCost(const ShadowPlaneModel& model, const std::vector<double>& weight,
+             const std::vector<Eigen::Vector3f>& targets, int lobes)
+      : model_(model), targets_(targets), lobes_(lobes) {
+    sqrt_w_.resize(weight.size());
+    for (size_t k = 0; k < weight.size(); ++k) sqrt_w_[k] = std::sqrt(weight[k]);
+    set_num_residuals(static_cast<int>(3 * model.points.size()));
+    for (int i = 0; i < lobes; ++i) {
+      mutable_parameter_block_sizes()->push_back(3);
+      mutable_parameter_block_sizes()->push_back(1);
+      mutable_parameter_block_sizes()->push_back(3);
+    }
+  }
+
+  bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
+    std::vector<Eigen::Vector3d> axes(lobes_);
+    std::vector<double> lambda(lobes_);
+    std::vector<Eigen::Vector3d> amp(lobes_);
+    std::vector<ProductLobe> products(lobes_);
+    for (int i = 0; i < lobes_; ++i) {
+      axes[i] = Eigen::Vector3d(params[3 * i][0], params[3 * i][1], params[3 * i][2]).normalized();
+      lambda[i] = std::exp(params[3 * i + 1][0]);
+      amp[i] = Eigen::Vector3d(params[3 * i + 2][0], params[3 * i + 2][1], params[3 * i + 2][2]);
+      products[i] = EvalProductLobe(axes[i], lambda[i], model_.normal, model_.cosine);
+    }
+    Eigen::MatrixXf theta;
+    std::vector<Eigen::Vector3f> witness;
+    PlaneAngles(model_, axes, &theta, &witness);
+    const long np = static_cast<long>(model_.points.size());
+#pragma omp parallel for schedule(static)
+    for (long k = 0; k < np; ++k) {
+      const Eigen::Vector3d rho = model_.albedo[k].cast<double>() / M_PI * sqrt_w_[k];
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      for (int j = 0; j < lobes_; ++j) {
+        const Eigen::Vector3d u = witness[k * lobes_ + j].cast<double>();
+        Eigen::Vector3d dtheta = Eigen::Vector3d::Zero();
+        if (jacobians && !u.isZero()) {
+          const double c = std::clamp(u.dot(axes[j]), -1.0, 1.0);
+          dtheta = -u / std::max(std::sqrt(1 - c * c), 1e-9);
+        }
+        const LobeShading s = ShadeLobe(products[j], theta(k, j), dtheta);
+        sum += s.value * amp[j];
+        if (!jacobians) continue;
+        for (int c = 0; c < 3; ++c) {
+          const long row = 3 * k + c;
+          if (double* J = jacobians[3 * j]) {
+            // Ceres passes the ambient 3-vector; our axis is its normalisation.
+            const Eigen::Vector3d v(params[3 * j][0], params[3 * j][1], params[3 * j][2]);
+            const Eigen::Vector3d g = (Eigen::Matrix3d::Identity() - axes[j] * axes[j].transpose()) *
+                                      (rho[c] * amp[j][c] * s.dvalue_dmu) / v.norm();
+            for (int d = 0; d < 3; ++d) J[row * 3 + d] = g[d];
+          }
+          if (double* J = jacobians[3 * j + 1]) J[row] = rho[c] * amp[j][c] * s.dvalue_dlambda * lambda[j];
+          if (double* J = jacobians[3 * j + 2])
+            for (int d = 0; d < 3; ++d) J[row * 3 + d] = d == c ? rho[c] * s.value : 0.0;
+        }
+      }
+      for (int c = 0; c < 3; ++c)
+        residuals[3 * k + c] = rho[c] * sum[c] - sqrt_w_[k] * targets_[k][c];
+    }
+    return true;
+  }
+
+ private:
+  const ShadowPlaneModel& model_;
+  const std::vector<Eigen::Vector3f>& targets_;
+  std::vector<double> sqrt_w_;
+  int lobes_;
+};
+
+class ProgressCallback final : public ceres::IterationCallback {
+ public:
+  ProgressCallback(const ProgressFn& fn, int max_iterations) : fn_(fn), max_(max_iterations) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
+    char status[96];
+    std::snprintf(status, sizeof(status), "refine it %d cost %.3e", s.iteration, s.cost);
+    Report(fn_, 0.5 + 0.5 * std::min(1.0, static_cast<double>(s.iteration) / std::max(1, max_)), status);
+    return ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const ProgressFn& fn_;
+  int max_;
+};
+
+template <typename T>
+std::vector<T> Gather(const std::vector<T>& v, const std::vector<size_t>& idx) {
+  std::vector<T> out;
+  out.reserve(idx.size());
+  for (size_t i : idx) out.push_back(v[i]);
+  return out;
+}
+
+// The model restricted to some points, with their cone tables prepared: the
+// fit renders these points many times.
+ShadowPlaneModel Subset(const ShadowPlaneModel& model, const std::vector<size_t>& idx) {
+  ShadowPlaneModel sub = model;
+  sub.points = Gather(model.points, idx);
+  sub.albedo = Gather(model.albedo, idx);
+  sub.PrepareCones();
+  return sub;
+}
+
+// Mean squared error over all points of `model` (weighted when weight is not
+// empty) against targets (same order).
+double WeightedMse(const ShadowPlaneModel& model, const SgLighting& l, const std::vector<double>& weight,
+                   const std::vector<Eigen::Vector3f>& targets) {
+  const std::vector<Eigen::Vector3f> r = RenderShadowPlane(model, l);
+  double se = 0, wsum = 0;
+  for (size_t k = 0; k < r.size(); ++k) {
+    const double w = weight.empty() ? 1.0 : weight[k];
+    se += w * (r[k] - targets[k]).cast<double>().squaredNorm();
+    wsum += 3 * w;
+  }
+  return se / wsum;
+}
+
+// Radiant power of a lobe (its integral over the sphere), summed over RGB.
+double Power(const SgLobe& l) { return SgIntegral(l).sum(); }
+
+// Mean resultant length of a vMF-like lobe of sharpness lambda, and back:
+// coth(lambda) - 1/lambda ~ 1 - 1/lambda for the lobes that matter.
+double ResultantLength(double lambda) { return lambda > 1e-3 ? 1 / std::tanh(lambda) - 1 / lambda : lambda / 3; }
+double SharpnessFromResultant(double r) {
+  double lambda = 1 / std::max(1e-9, 1 - r);  // Newton on ResultantLength(lambda) = r
+  for (int it = 0; it < 20; ++it) {
+    const double f = ResultantLength(lambda) - r;
+    const double df = 1 / (lambda * lambda) - 1 / std::pow(std::sinh(lambda), 2);
+    if (!(df > 0)) break;
+    lambda = std::clamp(lambda - f / df, 1e-3, 1e5);
+  }
+  return lambda;
+}
+
+// Merges lobes whose cones overlap: two lobes are one light when the angle
+// between their axes is below `overlap` times the wider one's width
+// (1/sqrt(lambda)). Power and first moment (vMF resultant) are kept.
+std::vector<SgLobe> MergeLobes(std::vector<SgLobe> lobes, double overlap) {
+  std::sort(lobes.begin(), lobes.end(), [](const SgLobe& a, const SgLobe& b) { return Power(a) > Power(b); });
+  std::vector<std::vector<SgLobe>> groups;
+  for (const SgLobe& l : lobes) {
+    bool placed = false;
+    for (auto& g : groups) {
+      const SgLobe& head = g.front();
+      const double width = 1 / std::sqrt(std::min(head.sharpness, l.sharpness));
+      const double angle = std::acos(std::clamp(head.axis.dot(l.axis), -1.0, 1.0));
+      if (angle < overlap * width && std::max(head.sharpness, l.sharpness) < 4 * std::min(head.sharpness, l.sharpness)) {
+        g.push_back(l);
+        placed = true;
+        break;
+      }
+    }
+    if (!placed) groups.push_back({l});
+  }
+  std::vector<SgLobe> out;
+  for (const auto& g : groups) {
+    if (g.size() == 1) {
+      out.push_back(g[0]);
+      continue;
+    }
+    Eigen::Vector3d moment = Eigen::Vector3d::Zero(), power_rgb = Eigen::Vector3d::Zero();
+    double power = 0;
+    for (const SgLobe& l : g) {
+      const double p = Power(l);
+      moment += p * ResultantLength(l.sharpness) * l.axis;
+      power += p;
+      power_rgb += SgIntegral(l);
+    }
+    SgLobe m;
+    m.axis = moment.normalized();
+    m.sharpness = SharpnessFromResultant(moment.norm() / power);
+    m.amplitude = power_rgb * m.sharpness / (2 * M_PI * (1 - std::exp(-2 * m.sharpness)));
+    out.push_back(m);
+  }
+  return out;
+}
+
+// Levenberg-Marquardt of every lobe of *lighting over the points of `model`;
+// drops lobes whose amplitude reaches 0. Returns the iterations run.
+int RefineLobes(const ShadowPlaneModel& model, const std::vector<double>& weight,
+                const std::vector<Eigen::Vector3f>& targets, int iterations, SgLighting* lighting,
+                const ProgressFn* progress) {
+  if (iterations <= 0 || lighting->lobes.empty()) return 0;
+  const int L = static_cast<int>(lighting->lobes.size());
+  std::vector<double> params(7 * L);
+  ceres::Problem problem;
+  std::vector<double*> blocks;
+  for (int i = 0; i < L; ++i) {
+    double* p = &params[7 * i];
+    for (int d = 0; d < 3; ++d) p[d] = lighting->lobes[i].axis[d];
+    p[3] = std::log(lighting->lobes[i].sharpness);
+    for (int d = 0; d < 3; ++d) p[4 + d] = lighting->lobes[i].amplitude[d];
+    blocks.insert(blocks.end(), {p, p + 3, p + 4});
+  }
+  problem.AddResidualBlock(new RefineCost(model, weight, targets, L), nullptr, blocks);
+  for (int i = 0; i < L; ++i) {
+    problem.SetManifold(&params[7 * i], new ceres::SphereManifold<3>());
+    problem.SetParameterLowerBound(&params[7 * i + 3], 0, std::log(kMinSharpness));
+    problem.SetParameterUpperBound(&params[7 * i + 3], 0, std::log(kMaxSharpness));
+    for (int d = 0; d < 3; ++d) problem.SetParameterLowerBound(&params[7 * i + 4], d, 0.0);
+  }
+  ceres::Solver::Options so;
+  so.minimizer_type = ceres::TRUST_REGION;
+  so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+  so.max_num_iterations = iterations;
+  so.num_threads = 1;  // the cost function is parallel inside
+  so.logging_type = ceres::SILENT;
+  std::unique_ptr<ProgressCallback> cb;
+  if (progress) {
+    cb = std::make_unique<ProgressCallback>(*progress, iterations);
+    so.callbacks.push_back(cb.get());
+  }
+  ceres::Solver::Summary s;
+  ceres::Solve(so, &problem, &s);
+  for (int i = 0; i < L; ++i) {
+    const double* p = &params[7 * i];
+    lighting->lobes[i] = {Eigen::Vector3d(p[0], p[1], p[2]).normalized(), std::exp(p[3]),
+                          Eigen::Vector3d(p[4], p[5], p[6]).cwiseMax(0.0)};
+  }
+  // Lobes that light the plane by a negligible fraction even unoccluded
+  // (dark, or below the horizon) are unobservable: drop them.
+  double total = 0;
+  std::vector<double> lit(lighting->lobes.size());
+  for (size_t i = 0; i < lit.size(); ++i) {
+    const SgLobe& l = lighting->lobes[i];
+    lit[i] = EvalProductLobe(l.axis, l.sharpness, model.normal, model.cosine).scale * l.amplitude.sum();
+    total += lit[i];
+  }
+  std::vector<SgLobe> kept;
+  for (size_t i = 0; i < lit.size(); ++i)
+    if (lit[i] > kNegligibleLight * total) kept.push_back(lighting->lobes[i]);
+  lighting->lobes = std::move(kept);
+  return static_cast<int>(s.iterations.size());
+}
+
+}  // namespace
+
+SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3f>& targets,
+                   const SgSolverOptions& o, SgSolverSummary* summary, const ProgressFn& progress) {
+  const auto start = Clock::now();
+  SgSolverSummary sum;
+  std::mt19937_64 rng(o.seed);
+  const PixelSets sets = SamplePixels(model, targets, o, rng);
+  const size_t nf = sets.fit.size(), nh = sets.holdout.size();
+
+  // theta for every (pixel, dictionary axis) once.
+  auto t0 = Clock::now();
+  const std::vector<Eigen::Vector3d> axes = FibonacciHemisphereAxes(o.dictionary_axes, model.normal);
+  const ShadowPlaneModel fit_model = Subset(model, sets.fit);
+  const ShadowPlaneModel hold_model = Subset(model, sets.holdout);
+  Eigen::MatrixXf theta_fit;
+  fit_model.cones.Angles(axes, &theta_fit, nullptr);
+  sum.theta_seconds = Since(t0);
+  Report(progress, 0.15, "theta done");
+
+  // Dictionary matrix G (fit pixels x atoms), per unit amplitude and albedo/pi.
+  t0 = Clock::now();
+  std::vector<Atom> atoms;
+  for (int a = 0; a < static_cast<int>(axes.size()); ++a)
+    for (double l : o.sharpness) atoms.push_back({a, l});
+  const long na = static_cast<long>(atoms.size());
+  Eigen::MatrixXf G(static_cast<long>(nf), na);
+#pragma omp parallel for schedule(dynamic, 4)
+  for (long j = 0; j < na; ++j) AtomColumn(model, theta_fit, atoms[j], axes[atoms[j].axis], G.col(j).data());
+
+  // Targets scaled to unit albedo/pi, and per-channel weights: the residual of
+  // channel c at pixel p is sqrt(w_p) rho_pc/pi (G a_c - b'_pc).
+  Eigen::MatrixXf B(static_cast<long>(nf), 3), W(static_cast<long>(nf), 3);
+  for (size_t k = 0; k < nf; ++k) {
+    const size_t i = sets.fit[k];
+    for (int c = 0; c < 3; ++c) {
+      const double rp = std::max(1e-12, static_cast<double>(model.albedo[i][c]) / M_PI);
+      B(static_cast<long>(k), c) = static_cast<float>(targets[i][c] / rp);
+      W(static_cast<long>(k), c) = static_cast<float>(sets.weight[k] * rp * rp);
+    }
+  }
+  const Eigen::VectorXf wmean = W.rowwise().mean();
+  (void)nh;
+  // Column norms under the mean weight, for the selection score.
+  Eigen::VectorXf col_norm2(na);
+  for (long j = 0; j < na; ++j) col_norm2[j] = std::max(1e-30f, (G.col(j).array().square() * wmean.array()).sum());
+
+  // Sparse dictionary fit: Lawson-Hanson-style active set on the channel sum
+  // (every light adds to it, so its support holds every light), run to the
+  // KKT point or max_atoms; a convex problem, so no greedy dead ends.
+  Eigen::VectorXf bsum = B.rowwise().sum();
+  std::vector<long> support;
+  Eigen::VectorXd x;
+  {
+    Eigen::MatrixXf GP(static_cast<long>(nf), 0);
+    Eigen::MatrixXd H(0, 0);
+    Eigen::VectorXd f(0);
+    Eigen::VectorXf r = bsum;
+    std::vector<char> in(na, 0);
+    while (static_cast<int>(support.size()) < o.max_atoms) {
+      const Eigen::VectorXf grad = G.transpose() * r.cwiseProduct(wmean);
+      long pick = -1;
+      float best = 0;
+      for (long j = 0; j < na; ++j)
+        if (!in[j] && grad[j] / std::sqrt(col_norm2[j]) > best) best = grad[j] / std::sqrt(col_norm2[j]), pick = j;
+      const double scale = std::sqrt((bsum.array().square() * wmean.array()).sum());
+      if (pick < 0 || best <= o.kkt_tolerance * scale) break;
+      in[pick] = 1;
+      support.push_back(pick);
+      const long P = static_cast<long>(support.size());
+      const Eigen::VectorXf gw = G.col(pick).cwiseProduct(wmean);
+      H.conservativeResize(P, P);
+      f.conservativeResize(P);
+      H.row(P - 1).head(P - 1) = (GP.transpose() * gw).cast<double>().transpose();
+      H.col(P - 1).head(P - 1) = H.row(P - 1).head(P - 1).transpose();
+      H(P - 1, P - 1) = static_cast<double>(gw.dot(G.col(pick)));
+      f[P - 1] = static_cast<double>(gw.dot(bsum));
+      GP.conservativeResize(Eigen::NoChange, P);
+      GP.col(P - 1) = G.col(pick);
+      x = SolveNnls(H, f);
+      r = bsum - GP * x.cast<float>();
+      Report(progress, 0.15 + 0.25 * support.size() / o.max_atoms, std::to_string(support.size()) + " atoms");
+    }
+  }
+  // Per-channel amplitudes on that support.
+  std::vector<SgLobe> atoms_fit;
+  {
+    const long P = static_cast<long>(support.size());
+    Eigen::MatrixXf GP(static_cast<long>(nf), P);
+    for (long a = 0; a < P; ++a) GP.col(a) = G.col(support[a]);
+    Eigen::MatrixXd amps(P, 3);
+    for (int c = 0; c < 3; ++c) {
+      const Eigen::MatrixXf GW = GP.array().colwise() * W.col(c).array();
+      amps.col(c) = SolveNnls((GW.transpose() * GP).cast<double>(), (GW.transpose() * B.col(c)).cast<double>());
+    }
+    for (long a = 0; a < P; ++a)
+      if (amps.row(a).maxCoeff() > 0)
+        atoms_fit.push_back({axes[atoms[support[a]].axis], atoms[support[a]].lambda, amps.row(a).transpose()});
+  }
+  if (atoms_fit.empty()) throw std::runtime_error("sg: no lobe lowers the error (is the plane lit at all?)");
+  // Neighbouring atoms are one light: merge them, strongest first.
+  std::vector<SgLobe> merged = MergeLobes(atoms_fit, o.merge_overlap);
+  std::sort(merged.begin(), merged.end(), [](const SgLobe& a, const SgLobe& b) { return Power(a) > Power(b); });
+
+  // Size path: the strongest k merged lobes, k = 1, 2, ..., each refined
+  // jointly from the previous model plus the next lobe; the held-out error of
+  // each decides how many the scene needs.
+  const int max_lobes = o.lobes > 0 ? o.lobes : o.max_lobes;
+  const std::vector<Eigen::Vector3f> fit_targets = Gather(targets, sets.fit);
+  SgLighting lighting;
+  lighting.up = model.normal;
+  std::vector<SgLighting> path;
+  std::vector<double> path_mse;
+  double best_mse = std::numeric_limits<double>::infinity();
+  int since_best = 0;
+  for (size_t k = 0; k < merged.size() && static_cast<int>(lighting.lobes.size()) < max_lobes; ++k) {
+    lighting.lobes.push_back(merged[k]);
+    // Lobes not yet in the model carry light the refinement must not miss:
+    // the first ones absorb it, later ones give it back.
+    RefineLobes(fit_model, sets.weight, fit_targets, o.path_refine_iterations, &lighting, nullptr);
+    const double mse = WeightedMse(hold_model, lighting, {}, Gather(targets, sets.holdout));
+    path.push_back(lighting);
+    path_mse.push_back(mse);
+    if (mse < best_mse * (1 - o.improvement)) best_mse = mse, since_best = 0;
+    else ++since_best;
+    char status[96];
+    std::snprintf(status, sizeof(status), "%zu lobes, held-out mse %.3e", lighting.lobes.size(), mse);
+    Report(progress, 0.4 + 0.4 * std::min(1.0, static_cast<double>(path.size()) / merged.size()), status);
+    if (o.lobes == 0 && since_best >= o.patience) break;  // the held-out error stopped improving
+  }
+  if (path.empty()) throw std::runtime_error("sg: no lobe lowers the error (is the plane lit at all?)");
+  sum.heldout_mse = path_mse;
+  // Smallest model within tolerance of the best held-out error.
+  size_t chosen = path.size() - 1;
+  if (o.lobes == 0) {
+    const double best = *std::min_element(path_mse.begin(), path_mse.end());
+    double signal = 0;
+    for (size_t i : sets.holdout) signal += targets[i].cast<double>().squaredNorm() / 3;
+    signal /= std::max<size_t>(1, sets.holdout.size());
+    for (size_t s = 0; s < path_mse.size(); ++s)
+      if (path_mse[s] <= best * (1 + o.size_tolerance) + kSizeNoiseFloor * signal) {
+        chosen = s;
+        break;
+      }
+  }
+  lighting = path[chosen];
+  sum.select_seconds = Since(t0);
+  sum.fit_mse_selected = WeightedMse(fit_model, lighting, sets.weight, Gather(targets, sets.fit));
+
+  // Final joint refinement of the chosen model.
+  t0 = Clock::now();
+  sum.refine_iterations = RefineLobes(fit_model, sets.weight, Gather(targets, sets.fit), o.refine_iterations,
+                                      &lighting, &progress);
+  sum.refine_seconds = Since(t0);
+  sum.fit_mse_refined = WeightedMse(fit_model, lighting, sets.weight, Gather(targets, sets.fit));
+  sum.lobes_kept = static_cast<int>(lighting.lobes.size());
+  sum.seconds = Since(start);
+  Report(progress, 1.0, std::to_string(sum.lobes_kept) + " lobes");
+  if (summary) *summary = sum;
+  return lighting;
+}
+
+}  // namespace shadowsg

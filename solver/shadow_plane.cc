@@ -1,0 +1,134 @@
+#include "solver/shadow_plane.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "calib/error.h"
+#include "solver/sg_shading.h"
+
+namespace shadowsg {
+namespace {
+
+// Points shaded per SignedAngles call: bounds the theta matrix's memory.
+constexpr size_t kRenderChunk = 8192;
+// Fixed reduction chunks of MseAndGradient (independent of the thread count).
+constexpr int kReductionChunks = 32;
+
+// The lobes that take part, and their axes.
+std::vector<size_t> ActiveLobes(const ShadowPlaneModel& model, const SgLighting& lighting,
+                                std::vector<Eigen::Vector3d>* axes) {
+  std::vector<size_t> active;
+  axes->clear();
+  for (size_t i = 0; i < lighting.lobes.size(); ++i) {
+    if (model.upper_hemisphere_only && lighting.lobes[i].axis.dot(model.normal) <= 0) continue;
+    active.push_back(i);
+    axes->push_back(lighting.lobes[i].axis);
+  }
+  return active;
+}
+
+}  // namespace
+
+void PlaneAngles(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* theta,
+                 std::vector<Eigen::Vector3f>* witness) {
+  if (model.HasCones()) model.cones.Angles(axes, theta, witness);
+  else SignedAnglesWithWitness(model.occluders, model.points, axes, theta, witness, model.search);
+}
+
+ShadowPlaneModel MakeShadowPlaneModel(const Scene& scene, const PlanePixels& pixels) {
+  ShadowPlaneModel model;
+  model.points = pixels.point;
+  model.normal = scene.plane.normal;
+  model.albedo.reserve(pixels.size());
+  for (const auto& p : pixels.point) model.albedo.push_back(PlaneAlbedo(scene.plane, p).cast<float>());
+  for (const SceneObject* o : scene.Casters()) {
+    SHADOWSG_CHECK(o->sphere_tree.has_value());
+    model.occluders.push_back(TransformSphereTree(*o->sphere_tree, o->o2w));
+  }
+  return model;
+}
+
+std::vector<Eigen::Vector3f> RenderShadowPlane(const ShadowPlaneModel& model, const SgLighting& lighting) {
+  std::vector<Eigen::Vector3d> axes;
+  const std::vector<size_t> active = ActiveLobes(model, lighting, &axes);
+  std::vector<ProductLobe> products;
+  for (size_t i : active) products.push_back(EvalProductLobe(lighting.lobes[i].axis, lighting.lobes[i].sharpness, model.normal, model.cosine));
+  std::vector<Eigen::Vector3f> out(model.points.size(), Eigen::Vector3f::Zero());
+  Eigen::MatrixXf theta;
+  const size_t chunk_size = model.HasCones() ? model.points.size() : kRenderChunk;
+  for (size_t begin = 0; begin < model.points.size(); begin += chunk_size) {
+    const size_t end = std::min(model.points.size(), begin + chunk_size);
+    const std::vector<Eigen::Vector3d> chunk(model.points.begin() + begin, model.points.begin() + end);
+    if (model.HasCones()) model.cones.Angles(axes, &theta, nullptr);
+    else SignedAngles(model.occluders, chunk, axes, &theta, model.search);
+#pragma omp parallel for schedule(static)
+    for (long k = 0; k < static_cast<long>(chunk.size()); ++k) {
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      for (size_t j = 0; j < active.size(); ++j) {
+        const LobeShading s = ShadeLobe(products[j], theta(k, j), Eigen::Vector3d::Zero());
+        sum += s.value * lighting.lobes[active[j]].amplitude;
+      }
+      out[begin + k] = (model.albedo[begin + k].cast<double>().cwiseProduct(sum) / M_PI).cast<float>();
+    }
+  }
+  return out;
+}
+
+double MseAndGradient(const ShadowPlaneModel& model, const SgLighting& lighting, const std::vector<size_t>& points,
+                      const std::vector<Eigen::Vector3f>& targets, Eigen::MatrixXd* grad) {
+  std::vector<Eigen::Vector3d> axes;
+  const std::vector<size_t> active = ActiveLobes(model, lighting, &axes);
+  const size_t na = active.size();
+  std::vector<ProductLobe> products;
+  for (size_t i : active) products.push_back(EvalProductLobe(lighting.lobes[i].axis, lighting.lobes[i].sharpness, model.normal, model.cosine));
+  std::vector<Eigen::Vector3d> xs;
+  xs.reserve(points.size());
+  for (size_t i : points) xs.push_back(model.points[i]);
+  Eigen::MatrixXf theta;
+  std::vector<Eigen::Vector3f> witness;
+  SignedAnglesWithWitness(model.occluders, xs, axes, &theta, &witness, model.search);
+
+  std::vector<Eigen::MatrixXd> chunk_grad(kReductionChunks, Eigen::MatrixXd::Zero(static_cast<long>(na), 7));
+  std::vector<double> chunk_loss(kReductionChunks, 0.0);
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int c = 0; c < kReductionChunks; ++c) {
+    std::vector<LobeShading> shade(na);
+    for (size_t k = c; k < points.size(); k += kReductionChunks) {
+      const size_t i = points[k];
+      const Eigen::Vector3d rho_over_pi = model.albedo[i].cast<double>() / M_PI;
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      for (size_t j = 0; j < na; ++j) {
+        const SgLobe& lobe = lighting.lobes[active[j]];
+        const Eigen::Vector3d u = witness[k * na + j].cast<double>();
+        const double cosine = std::clamp(u.dot(lobe.axis), -1.0, 1.0);
+        const Eigen::Vector3d dtheta = u.isZero() ? Eigen::Vector3d::Zero()
+                                                   : Eigen::Vector3d(-u / std::max(std::sqrt(1 - cosine * cosine), 1e-9));
+        shade[j] = ShadeLobe(products[j], theta(static_cast<long>(k), static_cast<long>(j)), dtheta);
+        sum += shade[j].value * lobe.amplitude;
+      }
+      const Eigen::Vector3d r = rho_over_pi.cwiseProduct(sum) - targets[i].cast<double>();
+      chunk_loss[c] += r.squaredNorm();
+      // d(r.r)/d(param) = 2 sum_c r_c dL_c/d(param).
+      const Eigen::Vector3d w = 2 * r.cwiseProduct(rho_over_pi);
+      for (size_t j = 0; j < na; ++j) {
+        const Eigen::Vector3d& a = lighting.lobes[active[j]].amplitude;
+        const double wa = w.dot(a);
+        auto row = chunk_grad[c].row(static_cast<long>(j));
+        row.segment<3>(0) += wa * shade[j].dvalue_dmu.transpose();
+        row[3] += wa * shade[j].dvalue_dlambda;
+        row.segment<3>(4) += shade[j].value * w.transpose();
+      }
+    }
+  }
+  Eigen::MatrixXd g = Eigen::MatrixXd::Zero(static_cast<long>(lighting.lobes.size()), 7);
+  double loss = 0;
+  const double denom = 3.0 * std::max<size_t>(1, points.size());
+  for (int c = 0; c < kReductionChunks; ++c) {
+    loss += chunk_loss[c];
+    for (size_t j = 0; j < na; ++j) g.row(static_cast<long>(active[j])) += chunk_grad[c].row(static_cast<long>(j));
+  }
+  if (grad) *grad = g / denom;
+  return loss / denom;
+}
+
+}  // namespace shadowsg

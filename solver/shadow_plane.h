@@ -1,0 +1,55 @@
+// The shadow plane as the SG solvers see it: the plane points of the pixels
+// in use, their albedo, the plane normal, and the casters as sphere trees;
+// and the closed-form renderer of method-notes.md ("The forward model"):
+//   L(x) = albedo(x)/pi * sum_i a_i * scale_i * sigma(k(lambda'_i) theta_i(x)).
+#pragma once
+
+#include <Eigen/Dense>
+#include <vector>
+
+#include "solver/plane_pixels.h"
+#include "solver/scene.h"
+#include "solver/sg.h"
+#include "solver/sg_shading.h"
+#include "solver/sphere_tree.h"
+#include "solver/ssdf.h"
+
+namespace shadowsg {
+
+struct ShadowPlaneModel {
+  std::vector<Eigen::Vector3d> points;  // world-space plane points
+  std::vector<Eigen::Vector3f> albedo;  // plane albedo at each point (textures allowed)
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
+  std::vector<SphereTree> occluders;    // world-space sphere trees of the casters
+  SsdfSearch search = SsdfSearch::kExact;
+  CosineModel cosine = CosineModel::kSgProduct;
+  // The reference code drops any lobe whose axis lies below the plane.
+  bool upper_hemisphere_only = true;
+  // Optional cone tables of `points` (PrepareCones): repeated renders of the
+  // same points then skip the per-point table set-up.
+  OccluderCones cones;
+
+  bool HasCones() const { return cones.size() == points.size() && !points.empty(); }
+  void PrepareCones() { cones = OccluderCones(occluders, points, search); }
+};
+
+// theta (and witness directions, when non-null) of every point of the model for
+// the axes, using the prepared cones when there are.
+void PlaneAngles(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* theta,
+                 std::vector<Eigen::Vector3f>* witness);
+
+// The model of a scene's plane pixels; every caster must have a sphere tree.
+ShadowPlaneModel MakeShadowPlaneModel(const Scene& scene, const PlanePixels& pixels);
+
+// Closed-form radiance of every point. Multithreaded.
+std::vector<Eigen::Vector3f> RenderShadowPlane(const ShadowPlaneModel& model, const SgLighting& lighting);
+
+// Mean squared error over the listed points and the three channels, against
+// targets[point], and its gradient with respect to each lobe's
+// [axis mu (3, as a free vector at |mu| = 1) | sharpness (1) | amplitude (3)]
+// in grad (lobes x 7). Sums are reduced in a fixed order: the result does not
+// depend on the thread count.
+double MseAndGradient(const ShadowPlaneModel& model, const SgLighting& lighting, const std::vector<size_t>& points,
+                      const std::vector<Eigen::Vector3f>& targets, Eigen::MatrixXd* grad);
+
+}  // namespace shadowsg

@@ -1,0 +1,603 @@
+#include "solver/ssdf.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+#include "calib/error.h"
+#include "solver/enclosing_sphere.h"
+
+namespace shadowsg {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr float kInfF = std::numeric_limits<float>::infinity();
+constexpr double kPi = 3.14159265358979323846;
+constexpr float kPiF = static_cast<float>(kPi);
+constexpr float kHalfPiF = static_cast<float>(kPi / 2);
+
+// Steps of the enclosing-sphere walk for a subtree whose own sphere does not
+// enclose its children: trades tightness (~1/sqrt(n)) for time, per tree.
+constexpr int kEnclosingIterations = 32;
+
+// A float cone table is evaluated with float rounding (~1e-7 rad per term); a
+// subtree is skipped only when its bound beats the best by more than this, so
+// rounding in the bound never hides the true minimum.
+constexpr float kBoundSlackF = 4e-6f;
+
+// Added to a cap computed in float (angles good to ~1e-7 rad) so that it
+// certainly contains its children's caps.
+constexpr float kCapSlack = 2e-6f;
+
+// Marks a bounding sphere that contains x: its cone is no bound at all, and
+// any value below the smallest possible leaf theta (-pi/2) forces a descent.
+constexpr double kContainsPoint = -10.0;
+
+// ---------------------------------------------------------------- double path
+
+// Angle between s (any length) and the unit axis mu, stable near 0 and pi.
+double AxisAngle(const Eigen::Vector3d& s, const Eigen::Vector3d& mu) {
+  const double d = s.norm();
+  if (d == 0) return std::acos(std::clamp(mu.z(), -1.0, 1.0));  // x at the centre: seen along +z (header)
+  return std::atan2(s.cross(mu).norm(), s.dot(mu));
+}
+
+double LeafTheta(const Sphere& sp, const Eigen::Vector3d& x, const Eigen::Vector3d& mu) {
+  if (sp.empty()) return kInf;
+  const Eigen::Vector3d s = sp.centre - x;
+  const double d = s.norm();
+  const double half = d <= sp.radius ? kPi / 2 : std::asin(sp.radius / d);
+  return AxisAngle(s, mu) - half;
+}
+
+// Lower bound of every leaf theta below a node whose leaves `bound` encloses:
+// the cone of an enclosed sphere lies inside the cone of the enclosing one,
+// and a signed angular distance can only shrink when its set grows. When x is
+// inside `bound` there is no cone, hence no bound.
+double BoundTheta(const Sphere& bound, const Eigen::Vector3d& x, const Eigen::Vector3d& mu) {
+  if (bound.empty()) return kInf;
+  const Eigen::Vector3d s = bound.centre - x;
+  const double d = s.norm();
+  if (d <= bound.radius) return kContainsPoint;
+  return AxisAngle(s, mu) - std::asin(bound.radius / d);
+}
+
+bool TreeUsable(const SphereTree& t) {
+  return t.levels >= 1 && t.branching >= 1 && t.nodes.size() == SphereTree::NodeCount(t.levels, t.branching);
+}
+
+void CheckTrees(const std::vector<SphereTree>& trees) {
+  for (const auto& t : trees) SHADOWSG_CHECK(t.nodes.empty() || TreeUsable(t));
+}
+
+void ExactSearch(const SphereTree& tree, const std::vector<Sphere>& bounds, size_t node, int level,
+                 const Eigen::Vector3d& x, const Eigen::Vector3d& mu, double* best) {
+  const int B = tree.branching;
+  const size_t first = tree.FirstChild(node);
+  if (level + 1 == tree.levels - 1) {
+    for (int k = 0; k < B; ++k) *best = std::min(*best, LeafTheta(tree.nodes[first + k], x, mu));
+    return;
+  }
+  std::vector<std::pair<double, size_t>> kids;
+  kids.reserve(B);
+  for (int k = 0; k < B; ++k) {
+    const double v = BoundTheta(bounds[first + k], x, mu);
+    if (v < *best) kids.emplace_back(v, first + k);
+  }
+  std::sort(kids.begin(), kids.end());
+  for (const auto& [v, child] : kids) {
+    if (v >= *best) break;
+    ExactSearch(tree, bounds, child, level + 1, x, mu, best);
+  }
+}
+
+double ExactTree(const SphereTree& tree, const Eigen::Vector3d& x, const Eigen::Vector3d& mu, double best) {
+  if (tree.nodes.empty()) return best;
+  if (tree.levels == 1) return std::min(best, LeafTheta(tree.nodes[0], x, mu));
+  const std::vector<Sphere> bounds = SubtreeBounds(tree);
+  if (BoundTheta(bounds[0], x, mu) < best) ExactSearch(tree, bounds, 0, 0, x, mu, &best);
+  return best;
+}
+
+// The reference descent on one tree, with the nodes' own spheres.
+double CoarseToFineTree(const SphereTree& tree, const Eigen::Vector3d& x, const Eigen::Vector3d& mu) {
+  if (tree.nodes.empty()) return kInf;
+  if (tree.levels == 1) return LeafTheta(tree.nodes[0], x, mu);
+  const int B = tree.branching;
+  std::vector<size_t> frontier = {0};
+  std::vector<std::pair<double, size_t>> scored;
+  for (int level = 1; level < tree.levels; ++level) {
+    scored.clear();
+    for (size_t parent : frontier)
+      for (int k = 0; k < B; ++k) {
+        const size_t c = tree.FirstChild(parent) + k;
+        const double v = LeafTheta(tree.nodes[c], x, mu);
+        if (v < kInf) scored.emplace_back(v, c);
+      }
+    if (scored.empty()) return kInf;
+    if (level == tree.levels - 1) return std::min_element(scored.begin(), scored.end())->first;
+    const size_t keep = std::min<size_t>(kCoarseToFineKeep, scored.size());
+    std::partial_sort(scored.begin(), scored.begin() + keep, scored.end());
+    frontier.clear();
+    for (size_t i = 0; i < keep; ++i) frontier.push_back(scored[i].second);
+  }
+  return kInf;
+}
+
+// ----------------------------------------------------------------- float path
+
+// asin on [0, 1] in float after Cephes asinf (S. Moshier): relative error about
+// 1 ulp. `half_complement` = (1 - x) / 2, passed separately so callers that
+// know it more precisely than 1 - x in float (x near 1) keep that precision.
+inline float AsinUnit(float x, float half_complement) {
+  const bool big = x > 0.5f;
+  const float root = std::sqrt(half_complement);  // both branches computed: keeps the loop branch-free
+  const float z = big ? half_complement : x * x;
+  const float s = big ? root : x;
+  const float p =
+      ((((4.2163199048e-2f * z + 2.4181311049e-2f) * z + 4.5470025998e-2f) * z + 7.4953002686e-2f) * z +
+       1.6666752422e-1f) *
+          z * s +
+      s;
+  return big ? kHalfPiF - 2 * p : p;
+}
+
+// The per-point cone table of every node of every tree (structure of arrays):
+// unit direction to the centre and half-angle, so that
+// theta = angle(u, mu) - alpha. Empty: alpha = -inf (theta = +inf).
+struct ConeTable {
+  std::vector<float> ux, uy, uz, alpha;
+  void Resize(size_t n) {
+    ux.resize(n);
+    uy.resize(n);
+    uz.resize(n);
+    alpha.resize(n);
+  }
+};
+
+struct FlatTree {
+  int levels = 0, branching = 0;
+  size_t offset = 0;      // index of the root in the flat arrays
+  size_t leaf_begin = 0;  // local index of the first leaf
+};
+
+// The trees flattened, with the spheres each search reads: for kExact the
+// subtree bounds (leaves themselves at the last level), for kCoarseToFine the
+// nodes' own spheres.
+struct FlatTrees {
+  std::vector<FlatTree> trees;
+  std::vector<Eigen::Vector3d> centre;
+  std::vector<double> radius;
+  std::vector<char> is_leaf;
+  bool exact = false;  // inner nodes are subtree bounds (kExact), not the nodes' own spheres
+};
+
+FlatTrees Flatten(const std::vector<SphereTree>& world_trees, SsdfSearch search) {
+  FlatTrees f;
+  for (const auto& t : world_trees) {
+    if (t.nodes.empty()) continue;
+    FlatTree ft{t.levels, t.branching, f.centre.size(), t.LevelBegin(t.levels - 1)};
+    const std::vector<Sphere> spheres = search == SsdfSearch::kExact ? SubtreeBounds(t) : t.nodes;
+    for (size_t i = 0; i < spheres.size(); ++i) {
+      f.centre.push_back(spheres[i].centre);
+      f.radius.push_back(spheres[i].empty() ? 0.0 : spheres[i].radius);
+      f.is_leaf.push_back(i >= ft.leaf_begin || search == SsdfSearch::kCoarseToFine);
+    }
+    f.trees.push_back(ft);
+  }
+  f.exact = search == SsdfSearch::kExact;
+  return f;
+}
+
+// Angle between unit vectors in float, 2 asin(|u - v| / 2) (precise near 0 and pi).
+inline float UnitAngle(float ux, float uy, float uz, float vx, float vy, float vz) {
+  const float dot = ux * vx + uy * vy + uz * vz;
+  const float sgn = dot >= 0 ? -1.0f : 1.0f;
+  const float wx = ux + sgn * vx, wy = uy + sgn * vy, wz = uz + sgn * vz;
+  const float h = 0.5f * std::sqrt(wx * wx + wy * wy + wz * wz);
+  const float a = 2 * AsinUnit(h, 0.5f * (1 - h));
+  return dot >= 0 ? a : kPiF - a;
+}
+
+// Seen from one point, the cones of a node's children lie inside the cap
+// around the node's direction u of half-angle max_k(angle(u, u_k) + alpha_k),
+// so that cap bounds the subtree too; it is often much narrower than the
+// cone of the enclosing sphere (for points near the object always), and it
+// is a bound even when the point is inside that sphere. Bottom-up, so each
+// level uses the tightened caps of the one below.
+void TightenBounds(const FlatTrees& f, ConeTable* t) {
+  for (const FlatTree& tr : f.trees) {
+    for (size_t local = tr.leaf_begin; local-- > 0;) {
+      const size_t i = tr.offset + local;
+      if (!(t->alpha[i] > -kInfF)) continue;  // empty subtree
+      const size_t first = tr.offset + local * tr.branching + 1;
+      float cap = 0;
+      for (int k = 0; k < tr.branching; ++k) {
+        const size_t c = first + k;
+        if (!(t->alpha[c] > -kInfF)) continue;
+        cap = std::max(cap, UnitAngle(t->ux[i], t->uy[i], t->uz[i], t->ux[c], t->uy[c], t->uz[c]) + t->alpha[c]);
+      }
+      t->alpha[i] = std::min(t->alpha[i], cap + kCapSlack);
+    }
+  }
+}
+
+void FillConeTable(const FlatTrees& f, const Eigen::Vector3d& x, ConeTable* t) {
+  const size_t n = f.centre.size();
+  for (size_t i = 0; i < n; ++i) {
+    const double r = f.radius[i];
+    const Eigen::Vector3d s = f.centre[i] - x;
+    const double d = s.norm();
+    float alpha;
+    Eigen::Vector3f u = Eigen::Vector3f::Zero();
+    if (r <= 0) {
+      alpha = -kInfF;
+    } else if (d <= r) {
+      if (!f.is_leaf[i]) {
+        alpha = static_cast<float>(-kContainsPoint);  // no bound: forces a descent
+      } else {
+        alpha = kHalfPiF;
+      }
+      u = d > 0 ? Eigen::Vector3f((s / d).cast<float>()) : Eigen::Vector3f::UnitZ();  // at the centre: +z (header)
+    } else {
+      u = (s / d).cast<float>();
+      alpha = AsinUnit(static_cast<float>(r / d), static_cast<float>(0.5 * (d - r) / d));
+    }
+    t->ux[i] = u.x();
+    t->uy[i] = u.y();
+    t->uz[i] = u.z();
+    t->alpha[i] = alpha;
+  }
+  if (f.exact) TightenBounds(f, t);
+}
+
+// theta of nodes [begin, begin + n) of the table for the unit axis m. The angle
+// is 2 asin(|u - m| / 2) (or pi minus that for u + m), which keeps float
+// precision near 0 and pi where acos(u . m) would not.
+template <int kFixed>
+inline void ConeThetasN(const ConeTable& t, size_t begin, int n_runtime, float mx, float my, float mz, float* out) {
+  const int n = kFixed > 0 ? kFixed : n_runtime;
+  const float* ux = t.ux.data() + begin;
+  const float* uy = t.uy.data() + begin;
+  const float* uz = t.uz.data() + begin;
+  const float* al = t.alpha.data() + begin;
+#pragma omp simd
+  for (int j = 0; j < n; ++j) {
+    const float dot = ux[j] * mx + uy[j] * my + uz[j] * mz;
+    const float sgn = dot >= 0 ? -1.0f : 1.0f;
+    const float vx = ux[j] + sgn * mx, vy = uy[j] + sgn * my, vz = uz[j] + sgn * mz;
+    const float h = 0.5f * std::sqrt(vx * vx + vy * vy + vz * vz);  // sin of half the angle, <= 0.7072
+    const float a = 2 * AsinUnit(h, 0.5f * (1 - h));
+    out[j] = (dot >= 0 ? a : kPiF - a) - al[j];
+  }
+}
+
+// The kernel, compiled for AVX2/FMA too and chosen at load time (GCC function
+// multiversioning; the default build targets plain x86-64: measured 1.2x on
+// the whole search). Branching 8, the project's and the reference's, gets a
+// fixed-width loop.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target_clones("avx2,fma", "default")))
+#endif
+void ConeThetas(const ConeTable& t, size_t begin, int n, float mx, float my, float mz, float* out) {
+  if (n == 8)
+    ConeThetasN<8>(t, begin, n, mx, my, mz, out);
+  else
+    ConeThetasN<0>(t, begin, n, mx, my, mz, out);
+}
+
+inline float ConeTheta(const ConeTable& t, size_t i, float mx, float my, float mz) {
+  float v;
+  ConeThetas(t, i, 1, mx, my, mz, &v);
+  return v;
+}
+
+struct StackEntry {
+  float bound;
+  int level;
+  size_t node;  // flat index
+};
+
+// Best-first depth-first branch-and-bound over one tree; updates *best and
+// *best_leaf (flat index). The stack holds at most B entries per level.
+void ExactTreeF(const FlatTree& tr, const ConeTable& t, float mx, float my, float mz, std::vector<StackEntry>* stack,
+                float* best, size_t* best_leaf) {
+  if (tr.levels == 1) {
+    const float v = ConeTheta(t, tr.offset, mx, my, mz);
+    if (v < *best) *best = v, *best_leaf = tr.offset;
+    return;
+  }
+  const int B = tr.branching;
+  const int leaf_parent_level = tr.levels - 2;
+  if (stack->size() < static_cast<size_t>(B * tr.levels)) stack->resize(B * tr.levels);
+  StackEntry* st = stack->data();
+  int top = 0;
+  std::array<float, 64> vals;
+  std::array<int, 64> order;
+  const float root = ConeTheta(t, tr.offset, mx, my, mz);
+  if (root - kBoundSlackF < *best) st[top++] = {root, 0, tr.offset};
+  while (top > 0) {
+    const StackEntry e = st[--top];
+    if (e.bound - kBoundSlackF >= *best) continue;
+    const size_t first = tr.offset + (e.node - tr.offset) * B + 1;
+    ConeThetas(t, first, B, mx, my, mz, vals.data());
+    if (e.level == leaf_parent_level) {
+      for (int k = 0; k < B; ++k)
+        if (vals[k] < *best) *best = vals[k], *best_leaf = first + k;
+      continue;
+    }
+    // Survivors in decreasing bound (insertion sort: at most B), so the most
+    // promising child is on top of the stack.
+    int m = 0;
+    const float limit = *best + kBoundSlackF;
+    for (int k = 0; k < B; ++k) {
+      const float v = vals[k];
+      if (!(v < limit)) continue;
+      int pos = m++;
+      while (pos > 0 && vals[order[pos - 1]] < v) {
+        order[pos] = order[pos - 1];
+        --pos;
+      }
+      order[pos] = k;
+    }
+    for (int k = 0; k < m; ++k) st[top++] = {vals[order[k]], e.level + 1, first + order[k]};
+  }
+}
+
+float CoarseToFineTreeF(const FlatTree& tr, const ConeTable& t, float mx, float my, float mz, size_t* argmin) {
+  *argmin = tr.offset;
+  if (tr.levels == 1) return ConeTheta(t, tr.offset, mx, my, mz);
+  const int B = tr.branching;
+  std::array<size_t, kCoarseToFineKeep> frontier = {tr.offset};
+  int nf = 1;
+  std::array<float, 64> vals;
+  std::array<std::pair<float, size_t>, kCoarseToFineKeep + 1> keep;
+  for (int level = 1; level < tr.levels; ++level) {
+    int nk = 0;
+    float level_min = kInfF;
+    for (int p = 0; p < nf; ++p) {
+      const size_t first = tr.offset + (frontier[p] - tr.offset) * B + 1;
+      ConeThetas(t, first, B, mx, my, mz, vals.data());
+      for (int k = 0; k < B; ++k) {
+        const float v = vals[k];
+        if (!(v < kInfF)) continue;
+        if (v < level_min) level_min = v, *argmin = first + k;
+        // Insertion into the sorted best-k list; ties keep the earlier node, as a stable sort would.
+        int pos = nk;
+        while (pos > 0 && keep[pos - 1].first > v) {
+          keep[pos] = keep[pos - 1];
+          --pos;
+        }
+        keep[pos] = {v, first + k};
+        nk = std::min(nk + 1, kCoarseToFineKeep);
+      }
+    }
+    if (nk == 0) return kInfF;
+    if (level == tr.levels - 1) return level_min;
+    nf = nk;
+    for (int i = 0; i < nk; ++i) frontier[i] = keep[i].second;
+  }
+  return kInfF;
+}
+
+// An order of the axes in which neighbours are close on the sphere (snake
+// through latitude bands), so the previous axis's best leaf is a tight first
+// bound for the next.
+std::vector<int> CoherentAxisOrder(const std::vector<Eigen::Vector3f>& axes) {
+  const int n = static_cast<int>(axes.size());
+  const int bands = std::max(1, static_cast<int>(std::sqrt(n / 2.0)));
+  std::vector<std::pair<double, int>> key(n);
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3f& a = axes[i];
+    const int band = std::min(bands - 1, static_cast<int>((a.z() + 1) / 2 * bands));
+    double phi = std::atan2(a.y(), a.x()) / (2 * kPi) + 0.5;  // [0, 1]
+    if (band % 2) phi = 1 - phi;
+    key[i] = {band + phi * 0.999, i};
+  }
+  std::sort(key.begin(), key.end());
+  std::vector<int> order(n);
+  for (int i = 0; i < n; ++i) order[i] = key[i].second;
+  return order;
+}
+
+}  // namespace
+
+std::vector<Sphere> SubtreeBounds(const SphereTree& tree) {
+  SHADOWSG_CHECK(TreeUsable(tree));
+  std::vector<Sphere> bounds(tree.nodes.size());
+  const size_t leaf_begin = tree.LevelBegin(tree.levels - 1);
+  for (size_t i = leaf_begin; i < tree.nodes.size(); ++i)
+    if (!tree.nodes[i].empty()) bounds[i] = tree.nodes[i];
+  std::vector<const Sphere*> kids;
+  for (size_t i = leaf_begin; i-- > 0;) {
+    kids.clear();
+    for (int k = 0; k < tree.branching; ++k) {
+      const Sphere& c = bounds[tree.FirstChild(i) + k];
+      if (!c.empty()) kids.push_back(&c);
+    }
+    if (kids.empty()) continue;  // no leaf below: stays empty
+    auto radius_about = [&](const Eigen::Vector3d& c) {
+      double r = 0;
+      for (const Sphere* s : kids) r = std::max(r, (s->centre - c).norm() + s->radius);
+      return r;
+    };
+    if (kids.size() == 1) {
+      bounds[i] = *kids[0];
+      continue;
+    }
+    // A node that already encloses its children (every tree this project
+    // builds) is kept, shrunk to touch the farthest child.
+    const Sphere& own = tree.nodes[i];
+    if (!own.empty()) {
+      const double r = radius_about(own.centre);
+      if (r <= own.radius) {
+        bounds[i] = {own.centre, r};
+        continue;
+      }
+    }
+    // Otherwise a sphere around the children's bounds.
+    std::vector<Sphere> kid_spheres;
+    for (const Sphere* s : kids) kid_spheres.push_back(*s);
+    const Sphere best = EnclosingSphere(kid_spheres, kEnclosingIterations);
+    bounds[i] = best;
+  }
+  return bounds;
+}
+
+double SignedAngleBruteForce(const std::vector<SphereTree>& world_trees, const Eigen::Vector3d& x,
+                             const Eigen::Vector3d& mu_in) {
+  CheckTrees(world_trees);
+  const Eigen::Vector3d mu = mu_in.normalized();
+  double best = kInf;
+  for (const auto& t : world_trees) {
+    if (t.nodes.empty()) continue;
+    for (size_t i = t.LevelBegin(t.levels - 1); i < t.nodes.size(); ++i)
+      best = std::min(best, LeafTheta(t.nodes[i], x, mu));
+  }
+  return best;
+}
+
+double SignedAngleToOccluders(const std::vector<SphereTree>& world_trees, const Eigen::Vector3d& x,
+                              const Eigen::Vector3d& mu_in, SsdfSearch search) {
+  CheckTrees(world_trees);
+  const Eigen::Vector3d mu = mu_in.normalized();
+  double best = kInf;
+  for (const auto& t : world_trees)
+    best = search == SsdfSearch::kExact ? ExactTree(t, x, mu, best) : std::min(best, CoarseToFineTree(t, x, mu));
+  return best;
+}
+
+void SignedAngles(const std::vector<SphereTree>& world_trees, const std::vector<Eigen::Vector3d>& points,
+                  const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* out, SsdfSearch search) {
+  SignedAnglesWithWitness(world_trees, points, axes, out, nullptr, search);
+}
+
+namespace {
+
+// theta (and the witness direction) of every axis for one point's cone table.
+void PointAngles(const FlatTrees& flat, const ConeTable& table, const std::vector<Eigen::Vector3f>& unit,
+                 const std::vector<int>& order, SsdfSearch search, std::vector<StackEntry>* stack, float* out_row,
+                 long out_stride, Eigen::Vector3f* witness_row) {
+  size_t warm = flat.trees[0].offset + flat.trees[0].leaf_begin;
+  for (int a : order) {
+    const float mx = unit[a].x(), my = unit[a].y(), mz = unit[a].z();
+    float best;
+    size_t argmin = warm;
+    if (search == SsdfSearch::kExact) {
+      // The previous axis's best leaf gives a first upper bound.
+      best = ConeTheta(table, warm, mx, my, mz);
+      for (const FlatTree& tr : flat.trees) ExactTreeF(tr, table, mx, my, mz, stack, &best, &warm);
+      argmin = warm;
+    } else {
+      best = kInfF;
+      for (const FlatTree& tr : flat.trees) {
+        size_t leaf;
+        const float v = CoarseToFineTreeF(tr, table, mx, my, mz, &leaf);
+        if (v < best) best = v, argmin = leaf;
+      }
+    }
+    out_row[a * out_stride] = best;
+    if (witness_row) witness_row[a] = Eigen::Vector3f(table.ux[argmin], table.uy[argmin], table.uz[argmin]);
+  }
+}
+
+std::vector<Eigen::Vector3f> UnitAxes(const std::vector<Eigen::Vector3d>& axes) {
+  std::vector<Eigen::Vector3f> unit(axes.size());
+  for (size_t a = 0; a < axes.size(); ++a) unit[a] = axes[a].normalized().cast<float>();
+  return unit;
+}
+
+}  // namespace
+
+void SignedAnglesWithWitness(const std::vector<SphereTree>& world_trees, const std::vector<Eigen::Vector3d>& points,
+                             const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* out,
+                             std::vector<Eigen::Vector3f>* witness, SsdfSearch search) {
+  CheckTrees(world_trees);
+  for (const auto& t : world_trees) SHADOWSG_CHECK(t.nodes.empty() || t.branching <= 64);
+  const long np = static_cast<long>(points.size());
+  const int na = static_cast<int>(axes.size());
+  out->resize(np, na);
+  if (witness) witness->assign(static_cast<size_t>(np) * na, Eigen::Vector3f::Zero());
+  if (np == 0 || na == 0) return;
+  const FlatTrees flat = Flatten(world_trees, search);
+  if (flat.trees.empty()) {
+    out->setConstant(kInfF);
+    return;
+  }
+  const std::vector<Eigen::Vector3f> unit = UnitAxes(axes);
+  const std::vector<int> order = CoherentAxisOrder(unit);
+
+  // Chunks of neighbouring points: their rows of `out` share cache lines.
+  constexpr long kChunk = 32;
+#pragma omp parallel
+  {
+    ConeTable table;
+    table.Resize(flat.centre.size());
+    std::vector<StackEntry> stack;
+    stack.reserve(1024);
+#pragma omp for schedule(dynamic, kChunk)
+    for (long p = 0; p < np; ++p) {
+      FillConeTable(flat, points[p], &table);
+      PointAngles(flat, table, unit, order, search, &stack, &(*out)(p, 0), out->rows(),
+                  witness ? &(*witness)[static_cast<size_t>(p) * na] : nullptr);
+    }
+  }
+}
+
+struct OccluderCones::Impl {
+  FlatTrees flat;
+  SsdfSearch search = SsdfSearch::kExact;
+  std::vector<ConeTable> tables;  // one per point
+};
+
+OccluderCones::OccluderCones(const std::vector<SphereTree>& world_trees, const std::vector<Eigen::Vector3d>& points,
+                             SsdfSearch search)
+    : impl_(std::make_shared<Impl>()) {
+  CheckTrees(world_trees);
+  for (const auto& t : world_trees) SHADOWSG_CHECK(t.nodes.empty() || t.branching <= 64);
+  impl_->search = search;
+  impl_->flat = Flatten(world_trees, search);
+  if (impl_->flat.trees.empty()) {
+    impl_->tables.resize(points.size());
+    return;
+  }
+  impl_->tables.resize(points.size());
+  const long np = static_cast<long>(points.size());
+#pragma omp parallel for schedule(dynamic, 64)
+  for (long p = 0; p < np; ++p) {
+    impl_->tables[p].Resize(impl_->flat.centre.size());
+    FillConeTable(impl_->flat, points[p], &impl_->tables[p]);
+  }
+}
+
+size_t OccluderCones::size() const { return impl_ ? impl_->tables.size() : 0; }
+
+void OccluderCones::Angles(const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* out,
+                           std::vector<Eigen::Vector3f>* witness) const {
+  const long np = static_cast<long>(impl_->tables.size());
+  const int na = static_cast<int>(axes.size());
+  out->resize(np, na);
+  if (witness) witness->assign(static_cast<size_t>(np) * na, Eigen::Vector3f::Zero());
+  if (np == 0 || na == 0) return;
+  if (impl_->flat.trees.empty()) {
+    out->setConstant(kInfF);
+    return;
+  }
+  const std::vector<Eigen::Vector3f> unit = UnitAxes(axes);
+  const std::vector<int> order = CoherentAxisOrder(unit);
+#pragma omp parallel
+  {
+    std::vector<StackEntry> stack;
+    stack.reserve(1024);
+#pragma omp for schedule(dynamic, 32)
+    for (long p = 0; p < np; ++p)
+      PointAngles(impl_->flat, impl_->tables[p], unit, order, impl_->search, &stack, &(*out)(p, 0), out->rows(),
+                  witness ? &(*witness)[static_cast<size_t>(p) * na] : nullptr);
+  }
+}
+
+}  // namespace shadowsg

@@ -1,0 +1,93 @@
+// The signed angular distance theta of the paper (Sec. 3.2, eq. 9-10): from a
+// plane point x, the signed angle between a lobe axis mu and the nearest
+// occluder boundary, the occluders being the leaf spheres of sphere trees.
+// theta > 0: mu is unoccluded by that much; theta < 0: mu points into an
+// occluder's cone.
+//
+// Conventions shared by every function here:
+// - trees are in world space; nodes with radius <= 0 are empty slots and are
+//   ignored; only the LAST level of a tree holds occluders (as the reference
+//   code's sph_level_min / sph_coarse2fine_min use them);
+// - theta(x, s) is evaluated as atan2(|u x mu|, u . mu) - asin(min(1, r/|s|)),
+//   u = s/|s|, s = c_s - x: the same value as acos(s.mu/|s|) - ..., computed
+//   without acos's loss of precision near 0 and pi. If x is inside a sphere the
+//   cone is the hemisphere around u (asin(1) = pi/2); if x is its centre, u is
+//   taken as +z;
+// - mu need not be unit length (it is normalised);
+// - with no occluder at all theta is +infinity (sigma = 1).
+#pragma once
+
+#include <Eigen/Dense>
+#include <memory>
+#include <vector>
+
+#include "solver/sphere_tree.h"
+
+namespace shadowsg {
+
+enum class SsdfSearch {
+  // Branch-and-bound over each tree: exact (equal to the brute force).
+  kExact,
+  // The reference code's descent (field-notes 1.4, sph_coarse2fine_min): from
+  // level 1 down, keep the best kCoarseToFineKeep nodes of each level and
+  // expand their children. Approximate, never below the exact value.
+  kCoarseToFine,
+};
+
+// The reference code's ssdf_sph_coarse2fine_k.
+constexpr int kCoarseToFineKeep = 3;
+
+// theta(x, mu) = min over the LEAF spheres s of all trees of
+//   acos(dot(c_s - x, mu) / |c_s - x|) - asin(min(1, r_s / |c_s - x|))
+// (world-space trees; empty slots ignored). kExact: branch-and-bound over the
+// tree. A parent sphere need not contain its children (trees read from files
+// do not promise it), so the bound of a subtree is the angle to a sphere that
+// encloses all of its leaves; it is computed from the tree on every call
+// (O(nodes); batch callers use SignedAngles, which computes it once).
+// kCoarseToFine: the reference code's search keeping the best 3 nodes per level.
+double SignedAngleToOccluders(const std::vector<SphereTree>& world_trees, const Eigen::Vector3d& x,
+                              const Eigen::Vector3d& mu, SsdfSearch search = SsdfSearch::kExact);
+// Every leaf sphere tried; for tests and checks.
+double SignedAngleBruteForce(const std::vector<SphereTree>& world_trees, const Eigen::Vector3d& x,
+                             const Eigen::Vector3d& mu);
+// theta for every (point, axis) pair, multithreaded (OpenMP): out(p, a), resized
+// to points x axes. Hot path of the solver: single precision with per-point
+// cone tables; agrees with SignedAngleToOccluders to about 1e-5 rad (float).
+void SignedAngles(const std::vector<SphereTree>& world_trees, const std::vector<Eigen::Vector3d>& points,
+                  const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* out,
+                  SsdfSearch search = SsdfSearch::kExact);
+
+// SignedAngles that also returns, for each pair, the unit direction u from the
+// point to the centre of the leaf sphere attaining the minimum, in
+// witness[p * axes + a] (zero when there is no occluder): the gradient of theta
+// with respect to a unit axis mu is -u / sin(angle(u, mu)) (paper eq. 9), the
+// subgradient the solvers use.
+void SignedAnglesWithWitness(const std::vector<SphereTree>& world_trees, const std::vector<Eigen::Vector3d>& points,
+                             const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* out,
+                             std::vector<Eigen::Vector3f>* witness, SsdfSearch search = SsdfSearch::kExact);
+
+// The cone tables of a fixed set of points, computed once: the occluders seen
+// from a plane point never change while the lighting is fitted, so solvers
+// that evaluate theta for new axes many times over the same points keep one
+// of these (about 16 bytes per point and tree node). Copies share the tables.
+class OccluderCones {
+ public:
+  OccluderCones() = default;
+  OccluderCones(const std::vector<SphereTree>& world_trees, const std::vector<Eigen::Vector3d>& points,
+                SsdfSearch search = SsdfSearch::kExact);
+  size_t size() const;
+  // As SignedAnglesWithWitness for the prepared points (witness may be null).
+  void Angles(const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* theta,
+              std::vector<Eigen::Vector3f>* witness) const;
+
+ private:
+  struct Impl;
+  std::shared_ptr<Impl> impl_;
+};
+
+// The spheres that bound each subtree for the exact search: node i of the
+// result encloses every non-empty leaf below (or at) node i; radius <= 0 where
+// the subtree has no leaf. Leaves are copied. Exposed for tests.
+std::vector<Sphere> SubtreeBounds(const SphereTree& tree);
+
+}  // namespace shadowsg

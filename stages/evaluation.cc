@@ -1,0 +1,79 @@
+#include "stages/evaluation.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "solver/metrics.h"
+#include "stages/io/image_io.h"
+#include "stages/io/lighting_io.h"
+
+namespace shadowsg {
+namespace fs = std::filesystem;
+
+Image PlaneRenderImage(const PlanePixels& pixels, const std::vector<Eigen::Vector3f>& values) {
+  Image img(pixels.width, pixels.height, 3);
+  for (size_t k = 0; k < pixels.size(); ++k) img.set_rgb(pixels.pixel[k], values[k].cwiseMax(0.0f));
+  return img;
+}
+
+Image ErrorMap(const Image& render, const Image& gt, const Image& mask) {
+  float range = 0;
+  for (size_t p = 0; p < gt.pixels(); ++p)
+    if (mask.data[p]) range = std::max(range, gt.rgb(p).maxCoeff());
+  const float full = 0.1f * (range > 0 ? range : 1.0f);
+  Image out(gt.width, gt.height, 3);
+  for (size_t p = 0; p < gt.pixels(); ++p) {
+    if (!mask.data[p]) {
+      out.set_rgb(p, Eigen::Vector3f::Constant(0.15f));  // grey: not scored
+      continue;
+    }
+    const float e = std::clamp((render.rgb(p).cwiseMax(0.0f) - gt.rgb(p)).cwiseAbs().mean() / full, 0.0f, 1.0f);
+    // Black -> red -> yellow -> white.
+    out.set_rgb(p, Eigen::Vector3f(std::min(1.0f, 3 * e), std::clamp(3 * e - 1, 0.0f, 1.0f),
+                                   std::clamp(3 * e - 2, 0.0f, 1.0f)));
+  }
+  return out;
+}
+
+Json ScoreAndWrite(const Scene& scene, const PlanePixels& pixels, const LightingEstimate& est, const fs::path& out,
+                   const Stopwatch& clock, const StageContext& ctx) {
+  EnsureOutputDir(out);
+  const Image mask = PlanePixelMask(pixels);
+  const Image render = PlaneRenderImage(pixels, est.plane_render);
+  const ImageMetrics im = CompareImages(render, scene.image, mask);
+
+  Json m;
+  m["method"] = est.method;
+  m["psnr"] = im.psnr;
+  m["ssim"] = im.ssim;
+  m["rel_rmse"] = im.rel_rmse;
+  m["env_angular_error_deg"] = nullptr;
+  m["irradiance_rel_rmse"] = nullptr;
+  if (scene.env_gt && !est.envmap.empty()) {
+    const EnvMetrics em = CompareEnvMaps(est.envmap, *scene.env_gt);
+    m["env_angular_error_deg"] = em.angular_error_deg;
+    m["irradiance_rel_rmse"] = em.irradiance_rel_rmse;
+  }
+  m["insert_psnr"] = nullptr;
+  m["insert_ssim"] = nullptr;
+  m["n_lobes"] = est.n_lobes;
+  m["n_params"] = est.n_params;
+  m["solve_seconds"] = est.solve_seconds;
+  m["threads"] = ctx.threads;
+  m["plane_pixels"] = pixels.size();
+  m["scene"] = scene.name;
+  if (!est.extra.empty()) m["report"] = est.extra;
+
+  if (est.sg) WriteSgLighting(out / "lighting.json", *est.sg);
+  if (!est.envmap.empty()) WriteExrWithPreview(out / "envmap.exr", est.envmap);
+  // One exposure for render and photo so the previews compare by eye.
+  float white = 0;
+  for (int p : pixels.pixel) white = std::max(white, scene.image.rgb(p).maxCoeff());
+  WriteExrWithPreview(out / "render.exr", render, white);
+  WriteLdr(out / "error.png", ErrorMap(render, scene.image, mask));
+  m["total_seconds"] = clock.Seconds();
+  WriteJsonFile(out / "metrics.json", m);
+  return m;
+}
+
+}  // namespace shadowsg

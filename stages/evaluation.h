@@ -1,0 +1,47 @@
+// Scoring and writing a lighting estimate (cli.md "solve"/"eval" outputs,
+// metrics.md): the re-rendered view, error map, env map, lighting file and
+// metrics.json. Shared by every method so that all are scored the same way.
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "solver/plane_pixels.h"
+#include "solver/scene.h"
+#include "solver/sg.h"
+#include "stages/io/json_util.h"
+#include "stages/stage_context.h"
+#include "stages/stage_util.h"
+
+namespace shadowsg {
+
+struct LightingEstimate {
+  std::string method;
+  std::optional<SgLighting> sg;             // SG methods
+  Image envmap;                             // every method: H x 2H radiance map
+  std::vector<Eigen::Vector3f> plane_render;  // re-render at every plane pixel
+  int n_lobes = 0;                          // SG: lobes kept; maps: 0
+  int n_params = 0;
+  double solve_seconds = 0;
+  Json extra = Json::object();              // method-specific report (summary, options)
+};
+
+// Height of the env maps written for SG estimates.
+inline constexpr int kEnvMapOutputHeight = 256;
+
+// Full-size image with the plane render at plane pixels and 0 elsewhere.
+Image PlaneRenderImage(const PlanePixels& pixels, const std::vector<Eigen::Vector3f>& values);
+
+// Scores the estimate and writes lighting.json (SG), envmap.exr/.png,
+// render.exr/.png, error.png and metrics.json (last, with total_seconds
+// measured from `command_clock`). Returns metrics.json's content.
+Json ScoreAndWrite(const Scene& scene, const PlanePixels& pixels, const LightingEstimate& estimate,
+                   const std::filesystem::path& out_dir, const Stopwatch& command_clock, const StageContext& ctx);
+
+// Heat-map picture of |render - gt| (mean over channels) on plane pixels,
+// scaled so that 10 % of the ground truth's range is full scale.
+Image ErrorMap(const Image& render, const Image& gt, const Image& mask);
+
+}  // namespace shadowsg

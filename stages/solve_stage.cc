@@ -1,0 +1,155 @@
+#include "stages/solve_stage.h"
+
+#include <cstdio>
+
+#include "calib/error.h"
+#include "solver/baselines.h"
+#include "solver/plane_pixels.h"
+#include "solver/sg_paper_solver.h"
+#include "solver/sg_solver.h"
+#include "solver/shadow_plane.h"
+#include "stages/evaluation.h"
+#include "stages/io/scene_io.h"
+#include "stages/sphere_tree_stage.h"
+#include "stages/stage_util.h"
+
+namespace shadowsg {
+namespace fs = std::filesystem;
+
+std::string SolveOptions::Validate() const {
+  static const char* kMethods[] = {"sg", "sg-paper", "ss03", "ss03+", "sh21"};
+  if (std::find(std::begin(kMethods), std::end(kMethods), method) == std::end(kMethods))
+    return "--method: unknown method '" + method + "' (expected sg, sg-paper, ss03, ss03+ or sh21)";
+  if (lobes < 0) return "--lobes: must be >= 0";
+  if (budget != "fast" && budget != "balanced" && budget != "best" && budget != "paper")
+    return "--budget: expected fast, balanced, best or paper";
+  if (map_height < 2 || map_height > 256) return "--map-height: expected 2 to 256 rows";
+  if (ssdf != "exact" && ssdf != "c2f") return "--ssdf: expected exact or c2f";
+  if (visibility != "spheres" && visibility != "exact") return "--visibility: expected spheres or exact";
+  return "";
+}
+
+namespace {
+
+std::vector<Eigen::Vector3f> Targets(const Scene& scene, const PlanePixels& pixels) {
+  std::vector<Eigen::Vector3f> t;
+  t.reserve(pixels.size());
+  for (int p : pixels.pixel) t.push_back(scene.image.rgb(p));
+  return t;
+}
+
+LightingEstimate SolveWithSgPaper(Scene& scene, const fs::path& scene_dir, const PlanePixels& pixels,
+                                  const SolveOptions& o, const StageContext& ctx) {
+  for (auto& obj : scene.objects)
+    if (obj.is_train) EnsureSphereTree(obj, scene_dir, ctx);
+  ShadowPlaneModel model = MakeShadowPlaneModel(scene, pixels);
+  model.search = o.ssdf == "c2f" ? SsdfSearch::kCoarseToFine : SsdfSearch::kExact;
+  SgPaperOptions po;
+  if (o.lobes > 0) po.lobes = o.lobes;
+  if (o.steps >= 0) po.steps = o.steps;
+  po.seed = ctx.seed;
+  std::string error;
+  if (!po.IsValid(&error)) throw InputError("", error);
+  SgSolveSummary summary;
+  Stopwatch solve_clock;
+  LightingEstimate est;
+  est.method = o.method;
+  est.sg = SolveSgPaper(model, Targets(scene, pixels), po, &summary, ctx.Progress("sg-paper"));
+  est.solve_seconds = solve_clock.Seconds();
+  est.plane_render = RenderShadowPlane(model, *est.sg);
+  est.envmap = SgToEnvMap(*est.sg, kEnvMapOutputHeight);
+  est.n_lobes = static_cast<int>(est.sg->lobes.size());
+  est.n_params = 6 * est.n_lobes;
+  est.extra = Json{{"steps", summary.iterations},
+                   {"final_batch_loss", summary.final_loss},
+                   {"lobes_initial", summary.lobes_initial},
+                   {"ssdf", o.ssdf}};
+  return est;
+}
+
+LightingEstimate SolveWithSg(Scene& scene, const fs::path& scene_dir, const PlanePixels& pixels,
+                             const SolveOptions& o, const StageContext& ctx) {
+  if (o.visibility == "exact")
+    throw InputError("", "--visibility exact: not implemented yet; use --visibility spheres");
+  for (auto& obj : scene.objects)
+    if (obj.is_train) EnsureSphereTree(obj, scene_dir, ctx);
+  ShadowPlaneModel model = MakeShadowPlaneModel(scene, pixels);
+  model.search = o.ssdf == "c2f" ? SsdfSearch::kCoarseToFine : SsdfSearch::kExact;
+  model.cosine = CosineModel::kExact;
+  model.upper_hemisphere_only = false;
+  SgSolverOptions so = SgSolverOptions::Budget(o.budget);
+  so.lobes = o.lobes;
+  so.seed = ctx.seed;
+  std::string error;
+  if (!so.IsValid(&error)) throw InputError("", error);
+  SgSolverSummary summary;
+  Stopwatch solve_clock;
+  LightingEstimate est;
+  est.method = o.method;
+  est.sg = SolveSg(model, Targets(scene, pixels), so, &summary, ctx.Progress("sg"));
+  est.solve_seconds = solve_clock.Seconds();
+  est.plane_render = RenderShadowPlane(model, *est.sg);
+  est.envmap = SgToEnvMap(*est.sg, kEnvMapOutputHeight);
+  est.n_lobes = static_cast<int>(est.sg->lobes.size());
+  est.n_params = 6 * est.n_lobes;
+  est.extra = Json{{"budget", o.budget},
+                   {"heldout_mse_path", summary.heldout_mse},
+                   {"fit_mse_selected", summary.fit_mse_selected},
+                   {"fit_mse_refined", summary.fit_mse_refined},
+                   {"refine_iterations", summary.refine_iterations},
+                   {"theta_seconds", summary.theta_seconds},
+                   {"select_seconds", summary.select_seconds},
+                   {"refine_seconds", summary.refine_seconds},
+                   {"ssdf", o.ssdf}};
+  return est;
+}
+
+LightingEstimate SolveWithBaseline(const Scene& scene, const PlanePixels& pixels, const RayCaster& casters,
+                                   const SolveOptions& o, const StageContext& ctx) {
+  BaselineOptions bo;
+  bo.method = o.method == "ss03" ? BaselineMethod::kSS03
+              : o.method == "ss03+" ? BaselineMethod::kSS03Plus
+                                    : BaselineMethod::kSH21;
+  bo.map_rows = o.map_height;
+  bo.estimate_albedo = o.estimate_albedo;
+  bo.seed = ctx.seed;
+  std::string error;
+  if (!bo.IsValid(&error)) throw InputError("", error);
+  const BaselineResult r = SolveBaseline(scene, pixels, casters, bo, ctx.Progress(o.method));
+  LightingEstimate est;
+  est.method = o.method;
+  est.envmap = r.envmap;
+  est.plane_render = r.render;
+  est.n_params = r.n_params;
+  est.solve_seconds = r.solve_seconds;
+  est.extra = Json{{"map_rows", o.map_height}, {"albedo_scale", r.albedo_scale}};
+  return est;
+}
+
+}  // namespace
+
+void RunSolve(const fs::path& scene_dir, const fs::path& out_dir, const SolveOptions& o, const StageContext& ctx) {
+  Stopwatch clock;
+  if (const std::string e = o.Validate(); !e.empty()) throw InputError("", e);
+  Scene scene = LoadScene(scene_dir);
+  const RayCaster casters = BuildRayCaster(scene.Casters());
+  const PlanePixels pixels = FindPlanePixels(scene, casters);
+  if (pixels.size() == 0)
+    throw InputError((scene_dir / "scene.json").string(),
+                     "no shadow-plane pixels: the camera does not see the plane rectangle (or the mask excludes it)");
+  ctx.Log("solve: " + scene.name + ", " + std::to_string(pixels.size()) + " plane pixels, method " + o.method +
+          ", " + std::to_string(ctx.threads) + " threads");
+  LightingEstimate est;
+  if (o.method == "sg-paper") est = SolveWithSgPaper(scene, scene_dir, pixels, o, ctx);
+  else if (o.method == "sg") est = SolveWithSg(scene, scene_dir, pixels, o, ctx);
+  else est = SolveWithBaseline(scene, pixels, casters, o, ctx);
+  const Json m = ScoreAndWrite(scene, pixels, est, out_dir, clock, ctx);
+  char line[256];
+  std::snprintf(line, sizeof(line), "solve: %s psnr %.2f dB, ssim %.4f, %d lobes, %d params, solve %.2f s, total %.2f s",
+                o.method.c_str(), m["psnr"].get<double>(), m["ssim"].get<double>(), est.n_lobes, est.n_params,
+                est.solve_seconds, m["total_seconds"].get<double>());
+  ctx.Log(line);
+  ctx.Log("outputs in " + out_dir.string());
+}
+
+}  // namespace shadowsg

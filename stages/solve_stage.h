@@ -1,0 +1,29 @@
+// `shadowsg solve`: estimate a scene's lighting with one method and write the
+// outputs of cli.md (lighting.json, envmap.exr, render.exr, metrics.json, PNGs).
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include "stages/stage_context.h"
+
+namespace shadowsg {
+
+struct SolveOptions {
+  std::string method = "sg";         // sg | sg-paper | ss03 | ss03+ | sh21
+  int lobes = 0;                     // sg: 0 = chosen by the solver; sg-paper: initial lobes (256)
+  std::string budget = "balanced";   // sg: fast | balanced | best
+  int steps = -1;                    // sg-paper: Adam steps (-1: the published 20000)
+  int map_height = 16;               // baselines: map rows over the hemisphere
+  bool estimate_albedo = false;      // sh21: estimate the plane albedo scale jointly
+  std::string ssdf = "exact";        // exact | c2f (the reference's coarse-to-fine search)
+  std::string visibility = "spheres";  // sg: spheres (closed form) | exact (ray-cast mesh visibility)
+
+  // Message naming the bad option, or empty.
+  std::string Validate() const;
+};
+
+void RunSolve(const std::filesystem::path& scene_dir, const std::filesystem::path& out_dir,
+              const SolveOptions& options, const StageContext& ctx);
+
+}  // namespace shadowsg

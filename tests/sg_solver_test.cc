@@ -1,0 +1,115 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "solver/sg_paper_solver.h"
+#include "solver/sg_solver.h"
+#include "solver/shadow_plane.h"
+#include "sg_test_scene.h"
+
+namespace shadowsg {
+namespace {
+
+using testing::TestPlaneModel;
+
+double Psnr(const std::vector<Eigen::Vector3f>& r, const std::vector<Eigen::Vector3f>& gt) {
+  double se = 0, range = 0;
+  for (size_t i = 0; i < gt.size(); ++i) {
+    se += (r[i].cwiseMax(0.0f) - gt[i]).cast<double>().squaredNorm();
+    range = std::max(range, static_cast<double>(gt[i].maxCoeff()));
+  }
+  return 10 * std::log10(range * range / (se / (3.0 * gt.size())));
+}
+
+double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) * 180 / M_PI;
+}
+
+// The closest estimated lobe (by amplitude-weighted axis) to each true lobe.
+double WorstAxisError(const SgLighting& est, const SgLighting& truth) {
+  double worst = 0;
+  for (const auto& t : truth.lobes) {
+    double best = 180;
+    for (const auto& e : est.lobes)
+      if (e.amplitude.sum() > 0.1 * t.amplitude.sum()) best = std::min(best, AngleDeg(e.axis, t.axis));
+    worst = std::max(worst, best);
+  }
+  return worst;
+}
+
+struct Case {
+  const char* name;
+  SgLighting truth;
+};
+
+std::vector<Case> Cases() {
+  Case one{"one lobe", {}};
+  one.truth.lobes.push_back({Eigen::Vector3d(0.4, 0.3, 0.87).normalized(), 40.0, Eigen::Vector3d(30, 28, 25)});
+  Case three{"three lobes", {}};
+  three.truth.lobes.push_back({Eigen::Vector3d(0.5, -0.2, 0.84).normalized(), 60.0, Eigen::Vector3d(40, 38, 30)});
+  three.truth.lobes.push_back({Eigen::Vector3d(-0.6, 0.3, 0.74).normalized(), 15.0, Eigen::Vector3d(4, 5, 7)});
+  three.truth.lobes.push_back({Eigen::Vector3d(0, 0, 1), 2.0, Eigen::Vector3d(0.5, 0.6, 0.8)});
+  return {one, three};
+}
+
+TEST(SgSolver, RecoversClosedFormScenes) {
+  for (const Case& c : Cases()) {
+    ShadowPlaneModel model = TestPlaneModel(96, CosineModel::kExact);
+    model.upper_hemisphere_only = false;
+    const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, c.truth);
+    SgSolverOptions o = SgSolverOptions::Budget("balanced");
+    SgSolverSummary s;
+    const SgLighting est = SolveSg(model, targets, o, &s);
+    const double psnr = Psnr(RenderShadowPlane(model, est), targets);
+    EXPECT_GT(psnr, 45.0) << c.name;
+    EXPECT_LT(WorstAxisError(est, c.truth), 2.0) << c.name;
+    EXPECT_LE(est.lobes.size(), 3 * c.truth.lobes.size()) << c.name << ": no more lobes than needed";
+  }
+}
+
+TEST(SgSolver, ForcedLobeCountAndDeterminism) {
+  ShadowPlaneModel model = TestPlaneModel(48, CosineModel::kExact);
+  model.upper_hemisphere_only = false;
+  const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, Cases()[1].truth);
+  SgSolverOptions o = SgSolverOptions::Budget("fast");
+  o.lobes = 2;
+  o.seed = 7;
+  const SgLighting a = SolveSg(model, targets, o, nullptr);
+  const SgLighting b = SolveSg(model, targets, o, nullptr);
+  EXPECT_LE(a.lobes.size(), 2u);
+  ASSERT_EQ(a.lobes.size(), b.lobes.size());
+  for (size_t i = 0; i < a.lobes.size(); ++i) EXPECT_EQ(a.lobes[i].axis, b.lobes[i].axis);
+}
+
+TEST(SgPaper, ReducesLossPrunesAndIsDeterministic) {
+  ShadowPlaneModel model = TestPlaneModel(32, CosineModel::kSgProduct);
+  const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, Cases()[0].truth);
+  SgPaperOptions o;  // the published optimiser, shortened for a unit test
+  o.steps = 2000;
+  o.lobes = 16;
+  o.batch = 256;
+  o.prune_every = 100;
+  o.prune_from = 100;
+  o.seed = 3;
+  SgSolveSummary s1, s2;
+  const SgLighting a = SolveSgPaper(model, targets, o, &s1);
+  const SgLighting b = SolveSgPaper(model, targets, o, &s2);
+  ASSERT_GE(s1.loss_history.size(), 2u);
+  EXPECT_LT(s1.loss_history.back().second, 0.1 * s1.loss_history.front().second);
+  EXPECT_LT(s1.lobes_kept, 16);  // pruning removed lobes
+  EXPECT_EQ(s1.final_loss, s2.final_loss);
+  ASSERT_EQ(a.lobes.size(), b.lobes.size());
+}
+
+TEST(SgPaper, FibonacciAxesInUpperHemisphere) {
+  const Eigen::Vector3d n = Eigen::Vector3d(0.2, 0.1, 1).normalized();
+  const auto axes = FibonacciHemisphereAxes(256, n);
+  ASSERT_EQ(axes.size(), 256u);
+  for (const auto& a : axes) {
+    EXPECT_GE(a.dot(n), -1e-12);
+    EXPECT_NEAR(a.norm(), 1, 1e-12);
+  }
+}
+
+}  // namespace
+}  // namespace shadowsg

@@ -1,0 +1,190 @@
+#include "solver/ssdf.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+namespace shadowsg {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+Eigen::Vector3d RandomUnit(std::mt19937_64& rng) {
+  std::normal_distribution<double> n;
+  return Eigen::Vector3d(n(rng), n(rng), n(rng)).normalized();
+}
+
+// A random complete tree over a cloud of leaves. With `enclosing`, each parent
+// is a sphere around its children (as a builder makes); without, parents are
+// arbitrary spheres that do NOT enclose them (as a file may hold), and some
+// slots are empty at every level.
+SphereTree RandomTree(std::mt19937_64& rng, int levels, int branching, bool enclosing, const Eigen::Vector3d& at) {
+  SphereTree t;
+  t.levels = levels;
+  t.branching = branching;
+  t.nodes.resize(SphereTree::NodeCount(levels, branching));
+  std::uniform_real_distribution<double> u(0, 1);
+  // Leaves clustered by subtree so the bounds are informative.
+  const size_t leaf_begin = t.LevelBegin(levels - 1);
+  for (size_t i = leaf_begin; i < t.nodes.size(); ++i) {
+    const size_t group = (i - leaf_begin) / branching;
+    std::mt19937_64 grng(group * 7919 + 1);
+    const Eigen::Vector3d g = at + 0.8 * RandomUnit(grng) * u(grng);
+    t.nodes[i].centre = g + 0.15 * RandomUnit(rng) * u(rng);
+    t.nodes[i].radius = u(rng) < 0.1 ? 0.0 : 0.02 + 0.08 * u(rng);
+  }
+  for (size_t i = leaf_begin; i-- > 0;) {
+    if (enclosing) {
+      Eigen::Vector3d c = Eigen::Vector3d::Zero();
+      int n = 0;
+      for (int k = 0; k < branching; ++k)
+        if (!t.nodes[t.FirstChild(i) + k].empty()) c += t.nodes[t.FirstChild(i) + k].centre, ++n;
+      if (n == 0) continue;
+      c /= n;
+      double r = 0;
+      for (int k = 0; k < branching; ++k) {
+        const Sphere& s = t.nodes[t.FirstChild(i) + k];
+        if (!s.empty()) r = std::max(r, (s.centre - c).norm() + s.radius);
+      }
+      t.nodes[i] = {c, r};
+    } else {
+      t.nodes[i].centre = at + 0.5 * RandomUnit(rng);
+      t.nodes[i].radius = u(rng) < 0.1 ? -1.0 : 0.05 * u(rng);
+    }
+  }
+  return t;
+}
+
+std::vector<SphereTree> TestTrees(uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  return {RandomTree(rng, 4, 8, true, Eigen::Vector3d(0, 0, 1)),
+          RandomTree(rng, 3, 8, false, Eigen::Vector3d(1.2, 0.3, 0.9)),
+          RandomTree(rng, 3, 4, true, Eigen::Vector3d(-1, 0.5, 0.4))};
+}
+
+// Plane points around the trees, some inside the clouds.
+std::vector<Eigen::Vector3d> TestPoints(std::mt19937_64& rng, int n) {
+  std::uniform_real_distribution<double> u(-2, 2);
+  std::vector<Eigen::Vector3d> p;
+  for (int i = 0; i < n; ++i) p.emplace_back(u(rng), u(rng), i % 5 == 0 ? 0.5 * (u(rng) + 2) : 0.0);
+  return p;
+}
+
+TEST(Ssdf, SingleSphereMatchesClosedForm) {
+  SphereTree t;
+  t.levels = 1;
+  t.branching = 8;
+  t.nodes = {{Eigen::Vector3d(0, 0, 2), 1.0}};
+  const Eigen::Vector3d x = Eigen::Vector3d::Zero();
+  // Straight at the centre: -asin(1/2).
+  EXPECT_NEAR(SignedAngleToOccluders({t}, x, Eigen::Vector3d::UnitZ()), -kPi / 6, 1e-12);
+  // 90 degrees away: pi/2 - pi/6.
+  EXPECT_NEAR(SignedAngleToOccluders({t}, x, Eigen::Vector3d::UnitX()), kPi / 3, 1e-12);
+  // Not normalised on input.
+  EXPECT_NEAR(SignedAngleToOccluders({t}, x, Eigen::Vector3d(0, 0, 5)), -kPi / 6, 1e-12);
+  // Inside the sphere: the cone is a hemisphere.
+  EXPECT_NEAR(SignedAngleToOccluders({t}, Eigen::Vector3d(0, 0, 1.5), Eigen::Vector3d::UnitZ()), -kPi / 2, 1e-12);
+}
+
+TEST(Ssdf, NoOccluderIsInfinite) {
+  const double inf = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(SignedAngleToOccluders({}, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ()), inf);
+  SphereTree empty;
+  empty.levels = 2;
+  empty.branching = 2;
+  empty.nodes.resize(3);  // all radius 0
+  EXPECT_EQ(SignedAngleToOccluders({empty}, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ()), inf);
+  EXPECT_EQ(SignedAngleBruteForce({empty}, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ()), inf);
+  Eigen::MatrixXf out;
+  SignedAngles({empty}, {Eigen::Vector3d::Zero()}, {Eigen::Vector3d::UnitZ()}, &out);
+  ASSERT_EQ(out.rows(), 1);
+  EXPECT_EQ(out(0, 0), std::numeric_limits<float>::infinity());
+}
+
+TEST(Ssdf, SubtreeBoundsEncloseEveryLeaf) {
+  for (const SphereTree& t : TestTrees(3)) {
+    const std::vector<Sphere> b = SubtreeBounds(t);
+    const size_t leaf_begin = t.LevelBegin(t.levels - 1);
+    for (size_t leaf = leaf_begin; leaf < t.nodes.size(); ++leaf) {
+      if (t.nodes[leaf].empty()) continue;
+      for (size_t i = leaf; i > 0;) {
+        i = (i - 1) / t.branching;
+        ASSERT_FALSE(b[i].empty());
+        EXPECT_LE((t.nodes[leaf].centre - b[i].centre).norm() + t.nodes[leaf].radius, b[i].radius * (1 + 1e-12));
+      }
+    }
+  }
+}
+
+TEST(Ssdf, ExactEqualsBruteForce) {
+  const auto trees = TestTrees(11);
+  std::mt19937_64 rng(5);
+  const auto points = TestPoints(rng, 300);
+  for (const auto& x : points)
+    for (int k = 0; k < 20; ++k) {
+      const Eigen::Vector3d mu = RandomUnit(rng);
+      const double exact = SignedAngleToOccluders(trees, x, mu, SsdfSearch::kExact);
+      ASSERT_NEAR(exact, SignedAngleBruteForce(trees, x, mu), 1e-9);
+      EXPECT_GE(SignedAngleToOccluders(trees, x, mu, SsdfSearch::kCoarseToFine), exact - 1e-12);
+    }
+}
+
+TEST(Ssdf, CoarseToFineIsOftenExact) {
+  // The reference descent is an approximation, but on trees whose parents
+  // enclose their children it should find the minimum most of the time.
+  std::mt19937_64 rng(8);
+  const std::vector<SphereTree> trees = {RandomTree(rng, 4, 8, true, Eigen::Vector3d(0, 0, 1))};
+  const auto points = TestPoints(rng, 200);
+  int exact = 0, total = 0;
+  for (const auto& x : points)
+    for (int k = 0; k < 10; ++k, ++total) {
+      const Eigen::Vector3d mu = RandomUnit(rng);
+      exact += std::abs(SignedAngleToOccluders(trees, x, mu, SsdfSearch::kCoarseToFine) -
+                        SignedAngleToOccluders(trees, x, mu)) < 1e-12;
+    }
+  EXPECT_GT(exact, total * 0.8);
+}
+
+TEST(Ssdf, BatchMatchesSingle) {
+  const auto trees = TestTrees(21);
+  std::mt19937_64 rng(9);
+  const auto points = TestPoints(rng, 500);
+  std::vector<Eigen::Vector3d> axes;
+  for (int i = 0; i < 40; ++i) axes.push_back(RandomUnit(rng) * (i % 3 + 1));  // not all unit
+  axes.push_back(Eigen::Vector3d::UnitZ());
+  for (SsdfSearch search : {SsdfSearch::kExact, SsdfSearch::kCoarseToFine}) {
+    Eigen::MatrixXf out;
+    SignedAngles(trees, points, axes, &out, search);
+    ASSERT_EQ(out.rows(), static_cast<long>(points.size()));
+    ASSERT_EQ(out.cols(), static_cast<long>(axes.size()));
+    double worst = 0;
+    for (size_t p = 0; p < points.size(); ++p)
+      for (size_t a = 0; a < axes.size(); ++a)
+        worst = std::max(worst, std::abs(out(p, a) - SignedAngleToOccluders(trees, points[p], axes[a], search)));
+    // Single precision: float rounding of directions and angles.
+    EXPECT_LT(worst, 2e-5) << (search == SsdfSearch::kExact ? "exact" : "coarse-to-fine");
+  }
+}
+
+TEST(Ssdf, BatchPrecisionNearTouchingSphere) {
+  // A sphere resting on the plane: points close to the contact point are where
+  // asin(r/d) is ill-conditioned; the float path must keep ~1e-5 there too.
+  SphereTree t;
+  t.levels = 1;
+  t.branching = 8;
+  t.nodes = {{Eigen::Vector3d(0, 0, 1), 1.0}};
+  std::vector<Eigen::Vector3d> points;
+  for (double e : {1e-7, 1e-5, 1e-3, 1e-1}) points.emplace_back(std::sqrt(e), 0, 0);
+  const std::vector<Eigen::Vector3d> axes = {Eigen::Vector3d::UnitZ(), Eigen::Vector3d(1, 0, 1).normalized(),
+                                             Eigen::Vector3d(-1, 0, 0.01).normalized()};
+  Eigen::MatrixXf out;
+  SignedAngles({t}, points, axes, &out);
+  for (size_t p = 0; p < points.size(); ++p)
+    for (size_t a = 0; a < axes.size(); ++a)
+      EXPECT_NEAR(out(p, a), SignedAngleBruteForce({t}, points[p], axes[a]), 1e-5);
+}
+
+}  // namespace
+}  // namespace shadowsg
