@@ -23,6 +23,25 @@ double EnvTexelSolidAngle(int v, int width, int height) {
   return (2 * M_PI / width) * (std::cos(t0) - std::cos(t1));
 }
 
+Eigen::Matrix4d ColmapPoseToC2w(const ColmapPose& pose) {
+  const Eigen::Quaterniond q(pose.qvec[0], pose.qvec[1], pose.qvec[2], pose.qvec[3]);
+  const Eigen::Matrix3d R_wc = q.normalized().toRotationMatrix();  // world -> camera
+  Eigen::Matrix4d c2w = Eigen::Matrix4d::Identity();
+  c2w.block<3, 3>(0, 0) = R_wc.transpose();
+  c2w.block<3, 1>(0, 3) = -R_wc.transpose() * pose.tvec;
+  return c2w;
+}
+
+ColmapPose C2wToColmapPose(const Eigen::Matrix4d& c2w) {
+  const Eigen::Matrix3d R_wc = c2w.block<3, 3>(0, 0).transpose();
+  Eigen::Quaterniond q(R_wc);
+  if (q.w() < 0) q.coeffs() = -q.coeffs();
+  ColmapPose pose;
+  pose.qvec = Eigen::Vector4d(q.w(), q.x(), q.y(), q.z());
+  pose.tvec = -R_wc * c2w.block<3, 1>(0, 3);
+  return pose;
+}
+
 Eigen::Matrix3d MinimalRotationToZ(const Eigen::Vector3d& normal) {
   return Eigen::Quaterniond::FromTwoVectors(normal.normalized(), Eigen::Vector3d::UnitZ())
       .toRotationMatrix();

@@ -26,6 +26,20 @@ inline Eigen::Vector2d AprilTagToOpenCvPixel(const Eigen::Vector2d& p) {
   return p - Eigen::Vector2d::Constant(kAprilTagPixelShift);
 }
 
+// ---- COLMAP image poses -------------------------------------------------------
+// COLMAP stores an image's pose world-to-camera, x_cam = R(q) x_world + t, with
+// q = (qw, qx, qy, qz) a Hamilton unit quaternion, w first (doc/format.rst @3.8;
+// Eigen::Quaterniond(w, x, y, z) is Hamilton too). Its camera axes are OpenCV's,
+// so c2w = [R^T | -R^T t] needs no axis flip.
+struct ColmapPose {
+  Eigen::Vector4d qvec = Eigen::Vector4d(1, 0, 0, 0);  // qw, qx, qy, qz
+  Eigen::Vector3d tvec = Eigen::Vector3d::Zero();
+};
+// q need not be exactly unit length (text models round it); it is normalised.
+Eigen::Matrix4d ColmapPoseToC2w(const ColmapPose& pose);
+// The inverse, with qw >= 0; c2w's 3x3 must be a rotation.
+ColmapPose C2wToColmapPose(const Eigen::Matrix4d& c2w);
+
 // ---- Environment maps (scene-format.md) -------------------------------------
 // Equirectangular, width = 2 * height, pole = world +z. Texel (u, v) looks along
 // (cos phi sin theta, sin phi sin theta, cos theta) with

@@ -51,6 +51,10 @@ void RegisterSphereTreeCommand(CLI::App& app) {
     if (s.boundary_edges > 0)
       ctx.Warn("the mesh is open (" + std::to_string(s.boundary_edges) + " boundary edges): inside/outside is a guess");
     if (s.inverted) ctx.Warn("the faces wind inwards (negative volume); normals were flipped");
+    int tiny = 0;
+    for (const Sphere& sp : tree.nodes) tiny += !sp.empty() && sp.radius <= 1e-4;  // sph_io's empty-slot radius
+    if (tiny > 0)
+      ctx.Warn(std::to_string(tiny) + " spheres have radius <= 1e-4 and read back from .sph as empty slots; scale the mesh up");
     if (opt->no_fit) return;
     SphereTreeFitOptions fo;
     fo.seed = opt->common.seed + 1;

@@ -8,6 +8,7 @@ namespace shadowsg {
 
 void RegisterInfoCommand(CLI::App& app);
 void RegisterSolveCommand(CLI::App& app);
+void RegisterEvalCommand(CLI::App& app);
 void RegisterRenderCommand(CLI::App& app);
 void RegisterSynthCommand(CLI::App& app);
 void RegisterDemoCommand(CLI::App& app);
@@ -15,5 +16,7 @@ void RegisterSphereTreeCommand(CLI::App& app);
 void RegisterIntrinsicsCommand(CLI::App& app);
 void RegisterLinearizeCommand(CLI::App& app);
 void RegisterPoseCommand(CLI::App& app);
+void RegisterPlaneCommand(CLI::App& app);
+void RegisterRegisterCommand(CLI::App& app);
 
 }  // namespace shadowsg

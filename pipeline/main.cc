@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "shadowsg 0.1.0");
   RegisterInfoCommand(app);
   RegisterSolveCommand(app);
+  RegisterEvalCommand(app);
   RegisterRenderCommand(app);
   RegisterSynthCommand(app);
   RegisterDemoCommand(app);
@@ -22,6 +23,8 @@ int main(int argc, char** argv) {
   RegisterIntrinsicsCommand(app);
   RegisterLinearizeCommand(app);
   RegisterPoseCommand(app);
+  RegisterPlaneCommand(app);
+  RegisterRegisterCommand(app);
 
   InstallInterruptHandlers();
   try {

@@ -78,11 +78,10 @@ LightTransport::LightTransport(const Scene& scene, const std::vector<Eigen::Vect
   std::vector<Eigen::Vector3d> dirs(n);
   cosine_solid_angle_.resize(n);
   lit_.assign(words_, 0);
-  std::vector<uint64_t>& lit_mask = lit_;
   for (int j = 0; j < n; ++j) {
     dirs[j] = map_.Direction(j);
     cosine_solid_angle_[j] = std::max(normal.dot(dirs[j]), 0.0) * map_.SolidAngle(j);
-    if (cosine_solid_angle_[j] > 0) lit_mask[j / 64] |= uint64_t{1} << (j % 64);
+    if (cosine_solid_angle_[j] > 0) lit_[j / 64] |= uint64_t{1} << (j % 64);
   }
 
   std::vector<BoundingSphere> bounds;
@@ -104,7 +103,7 @@ LightTransport::LightTransport(const Scene& scene, const std::vector<Eigen::Vect
     for (size_t i = 0; i < rows_; ++i) {
       if (cancelled.load(std::memory_order_relaxed)) continue;
       uint64_t* row = &visible_[i * words_];
-      std::copy(lit_mask.begin(), lit_mask.end(), row);
+      std::copy(lit_.begin(), lit_.end(), row);
       ray_texels.clear();
       double offset = 0;
       for (const BoundingSphere& b : bounds) {

@@ -31,7 +31,7 @@ ProductLobe EvalProductLobe(const Eigen::Vector3d& mu, double lambda, const Eige
   return p;
 }
 
-LobeShading ShadeLobe(const ProductLobe& p, double theta, const Eigen::Vector3d& dtheta_dmu) {
+LobeShading ShadeLobe(const ProductLobe& p, double theta, const Eigen::Vector3d& dtheta_dmu, double occluder_cos) {
   LobeShading s;
   if (!std::isfinite(theta)) {  // no occluder at all: fully visible
     s.sigma = 1;
@@ -45,9 +45,24 @@ LobeShading ShadeLobe(const ProductLobe& p, double theta, const Eigen::Vector3d&
   const double z = k * theta;
   s.sigma = z >= 0 ? 1 / (1 + std::exp(-z)) : std::exp(z) / (1 + std::exp(z));
   const double dsig_dz = s.sigma * (1 - s.sigma);
-  s.value = p.scale * s.sigma;
-  s.dvalue_dlambda = p.dscale_dlambda * s.sigma + p.scale * dsig_dz * dk * p.dlambda_prime_dlambda * theta;
-  s.dvalue_dmu = p.dscale_dmu * s.sigma + p.scale * dsig_dz * (dk * theta * p.dlambda_prime_dmu + k * dtheta_dmu);
+  if (occluder_cos < -1) {
+    s.value = p.scale * s.sigma;
+    s.dvalue_dlambda = p.dscale_dlambda * s.sigma + p.scale * dsig_dz * dk * p.dlambda_prime_dlambda * theta;
+    s.dvalue_dmu = p.dscale_dmu * s.sigma + p.scale * dsig_dz * (dk * theta * p.dlambda_prime_dmu + k * dtheta_dmu);
+    return s;
+  }
+  const double lp = p.lambda_prime, h = 1 - occluder_cos;
+  const double ea = std::exp(-lp * h), e2 = std::exp(-2 * lp);
+  const double den = 1 - e2;
+  const double F = (1 - ea) / den;
+  const double dF = (h * ea * den - (1 - ea) * 2 * e2) / (den * den);  // dF / d lambda'
+  const double V = 1 - (1 - s.sigma) * F;
+  // dV = sigma' F dz - (1 - sigma) dF dlambda', dz = dk theta dlambda' + k dtheta.
+  const double dV_dlp = dsig_dz * F * dk * theta - (1 - s.sigma) * dF;
+  s.sigma = V;
+  s.value = p.scale * V;
+  s.dvalue_dlambda = p.dscale_dlambda * V + p.scale * dV_dlp * p.dlambda_prime_dlambda;
+  s.dvalue_dmu = p.dscale_dmu * V + p.scale * (dV_dlp * p.dlambda_prime_dmu + dsig_dz * F * k * dtheta_dmu);
   return s;
 }
 

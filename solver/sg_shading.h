@@ -19,6 +19,9 @@ inline constexpr double kVisibilityK2 = -0.892;
 inline constexpr double kVisibilityK1 = 2.995;
 inline constexpr double kVisibilityK0 = 0.067;
 
+// ShadeLobe's occluder_cos meaning "no cap" (the paper's visibility).
+inline constexpr double kNoOcclusionCap = -2.0;
+
 inline double VisibilitySteepness(double x) {
   return ((kVisibilityK3 * x + kVisibilityK2) * x + kVisibilityK1) * x + kVisibilityK0;
 }
@@ -56,6 +59,16 @@ struct LobeShading {
   double dvalue_dlambda = 0;
   Eigen::Vector3d dvalue_dmu = Eigen::Vector3d::Zero();
 };
-LobeShading ShadeLobe(const ProductLobe& product, double theta, const Eigen::Vector3d& dtheta_dmu);
+//
+// occluder_cos (optional, in [-1, 1]): cosine of the half-angle of a cone
+// around the whole caster seen from the point. The sigmoid was fitted to a
+// half-space boundary (Wang 2009): for a broad lobe behind a small caster it
+// removes far more light than the caster's solid angle can block. With the
+// cap, the occluded share is limited to F, the largest fraction of the
+// product lobe's energy that a cone of that size can hold:
+//   V = 1 - (1 - sigma) F,  F = (1 - e^{-lambda'(1 - cos a)}) / (1 - e^{-2 lambda'}).
+// Sharp lobes have F = 1 (the paper's model); `sg` uses it, `sg-paper` not.
+LobeShading ShadeLobe(const ProductLobe& product, double theta, const Eigen::Vector3d& dtheta_dmu,
+                      double occluder_cos = kNoOcclusionCap);
 
 }  // namespace shadowsg

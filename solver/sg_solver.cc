@@ -20,7 +20,7 @@ SgSolverOptions SgSolverOptions::Budget(const std::string& name) {
   SgSolverOptions o;
   if (name == "fast") {
     o.dictionary_axes = 160;
-    o.sharpness = {4, 15, 60, 250};
+    o.sharpness = {0.5, 4, 15, 60, 250};
     o.fit_pixels = 6000;
     o.holdout_pixels = 2000;
     o.max_lobes = 16;
@@ -28,7 +28,7 @@ SgSolverOptions SgSolverOptions::Budget(const std::string& name) {
     o.path_refine_iterations = 4;
   } else if (name == "best") {
     o.dictionary_axes = 600;
-    o.sharpness = {2, 4, 8, 16, 32, 64, 128, 256, 600};
+    o.sharpness = {0.5, 1.5, 4, 8, 16, 32, 64, 128, 256, 600};
     o.fit_pixels = 40000;
     o.holdout_pixels = 10000;
     o.max_lobes = 48;
@@ -141,12 +141,10 @@ struct Atom {
 void AtomColumn(const ShadowPlaneModel& model, const Eigen::MatrixXf& theta, const Atom& atom,
                 const Eigen::Vector3d& axis, float* out) {
   const ProductLobe p = EvalProductLobe(axis, atom.lambda, model.normal, model.cosine);
-  const double k = VisibilitySteepness(p.lambda_prime);
-  for (long r = 0; r < theta.rows(); ++r) {
-    const double z = k * theta(r, atom.axis);
-    const double sigma = !std::isfinite(z) ? (z > 0 ? 1.0 : 0.0) : 1 / (1 + std::exp(-z));
-    out[r] = static_cast<float>(p.scale * sigma);
-  }
+  for (long r = 0; r < theta.rows(); ++r)
+    out[r] = static_cast<float>(
+        ShadeLobe(p, theta(r, atom.axis), Eigen::Vector3d::Zero(),
+                  model.cap_occlusion ? model.occluder_cos[r] : kNoOcclusionCap).value);
 }
 
 // The Ceres problem of the refinement: one residual block over every fit pixel
@@ -181,7 +179,9 @@ class RefineCost final : public ceres::CostFunction {
     }
     Eigen::MatrixXf theta;
     std::vector<Eigen::Vector3f> witness;
-    PlaneAngles(model_, axes, &theta, &witness);
+    std::vector<float> caps;
+    for (const ProductLobe& p : products) caps.push_back(VisibilityCap(p));
+    PlaneAngles(model_, axes, caps, &theta, &witness);
     const long np = static_cast<long>(model_.points.size());
 #pragma omp parallel for schedule(static)
     for (long k = 0; k < np; ++k) {
@@ -194,7 +194,8 @@ class RefineCost final : public ceres::CostFunction {
           const double c = std::clamp(u.dot(axes[j]), -1.0, 1.0);
           dtheta = -u / std::max(std::sqrt(1 - c * c), 1e-9);
         }
-        const LobeShading s = ShadeLobe(products[j], theta(k, j), dtheta);
+        const LobeShading s = ShadeLobe(products[j], theta(k, j), dtheta,
+                                        model_.cap_occlusion ? model_.occluder_cos[k] : kNoOcclusionCap);
         sum += s.value * amp[j];
         if (!jacobians) continue;
         for (int c = 0; c < 3; ++c) {
@@ -253,6 +254,7 @@ ShadowPlaneModel Subset(const ShadowPlaneModel& model, const std::vector<size_t>
   ShadowPlaneModel sub = model;
   sub.points = Gather(model.points, idx);
   sub.albedo = Gather(model.albedo, idx);
+  if (!model.occluder_cos.empty()) sub.occluder_cos = Gather(model.occluder_cos, idx);
   sub.PrepareCones();
   return sub;
 }
@@ -418,7 +420,7 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   const long na = static_cast<long>(atoms.size());
   Eigen::MatrixXf G(static_cast<long>(nf), na);
 #pragma omp parallel for schedule(dynamic, 4)
-  for (long j = 0; j < na; ++j) AtomColumn(model, theta_fit, atoms[j], axes[atoms[j].axis], G.col(j).data());
+  for (long j = 0; j < na; ++j) AtomColumn(fit_model, theta_fit, atoms[j], axes[atoms[j].axis], G.col(j).data());
 
   // Targets scaled to unit albedo/pi, and per-channel weights: the residual of
   // channel c at pixel p is sqrt(w_p) rho_pc/pi (G a_c - b'_pc).
@@ -494,32 +496,40 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   std::vector<SgLobe> merged = MergeLobes(atoms_fit, o.merge_overlap);
   std::sort(merged.begin(), merged.end(), [](const SgLobe& a, const SgLobe& b) { return Power(a) > Power(b); });
 
-  // Size path: the strongest k merged lobes, k = 1, 2, ..., each refined
-  // jointly from the previous model plus the next lobe; the held-out error of
-  // each decides how many the scene needs.
-  const int max_lobes = o.lobes > 0 ? o.lobes : o.max_lobes;
+  // Size path, from large to small: all merged lobes refined jointly, then
+  // repeatedly the weakest lobe removed and the rest refined. Going down
+  // keeps every light represented while the others settle (going up, the
+  // first lobe would widen to absorb lights not yet in the model). The
+  // held-out error of each model decides how many the scene needs.
+  const int max_lobes = o.lobes > 0 ? std::max(o.lobes, 1) : o.max_lobes;
   const std::vector<Eigen::Vector3f> fit_targets = Gather(targets, sets.fit);
+  const std::vector<Eigen::Vector3f> hold_targets = Gather(targets, sets.holdout);
   SgLighting lighting;
   lighting.up = model.normal;
+  for (size_t k = 0; k < merged.size() && static_cast<int>(k) < std::max(max_lobes, o.lobes); ++k)
+    lighting.lobes.push_back(merged[k]);
   std::vector<SgLighting> path;
   std::vector<double> path_mse;
-  double best_mse = std::numeric_limits<double>::infinity();
-  int since_best = 0;
-  for (size_t k = 0; k < merged.size() && static_cast<int>(lighting.lobes.size()) < max_lobes; ++k) {
-    lighting.lobes.push_back(merged[k]);
-    // Lobes not yet in the model carry light the refinement must not miss:
-    // the first ones absorb it, later ones give it back.
+  RefineLobes(fit_model, sets.weight, fit_targets, 2 * o.path_refine_iterations, &lighting, nullptr);
+  const size_t start_size = lighting.lobes.size();
+  while (!lighting.lobes.empty()) {
+    if (o.lobes == 0 || static_cast<int>(lighting.lobes.size()) <= o.lobes) {
+      path.push_back(lighting);
+      path_mse.push_back(WeightedMse(hold_model, lighting, {}, hold_targets));
+      char status[96];
+      std::snprintf(status, sizeof(status), "%zu lobes, held-out mse %.3e", lighting.lobes.size(), path_mse.back());
+      Report(progress, 0.4 + 0.4 * (1 - static_cast<double>(lighting.lobes.size()) / start_size), status);
+    }
+    if (o.lobes > 0 && static_cast<int>(lighting.lobes.size()) <= o.lobes) break;
+    if (lighting.lobes.size() == 1) break;
+    const auto weakest = std::min_element(lighting.lobes.begin(), lighting.lobes.end(),
+                                          [](const SgLobe& a, const SgLobe& b) { return Power(a) < Power(b); });
+    lighting.lobes.erase(weakest);
     RefineLobes(fit_model, sets.weight, fit_targets, o.path_refine_iterations, &lighting, nullptr);
-    const double mse = WeightedMse(hold_model, lighting, {}, Gather(targets, sets.holdout));
-    path.push_back(lighting);
-    path_mse.push_back(mse);
-    if (mse < best_mse * (1 - o.improvement)) best_mse = mse, since_best = 0;
-    else ++since_best;
-    char status[96];
-    std::snprintf(status, sizeof(status), "%zu lobes, held-out mse %.3e", lighting.lobes.size(), mse);
-    Report(progress, 0.4 + 0.4 * std::min(1.0, static_cast<double>(path.size()) / merged.size()), status);
-    if (o.lobes == 0 && since_best >= o.patience) break;  // the held-out error stopped improving
   }
+  // Smallest first, as the selection below expects.
+  std::reverse(path.begin(), path.end());
+  std::reverse(path_mse.begin(), path_mse.end());
   if (path.empty()) throw std::runtime_error("sg: no lobe lowers the error (is the plane lit at all?)");
   sum.heldout_mse = path_mse;
   // Smallest model within tolerance of the best held-out error.

@@ -12,12 +12,12 @@
 //    active-set method (solver/nnls.h on the active Gram matrix), a convex
 //    problem; neighbouring atoms of the solution are merged into one lobe
 //    each (power and first moment kept).
-// 4. Size path: the k strongest lobes, k = 1, 2, ..., each model refined by
-//    Levenberg-Marquardt (Ceres: axes on the sphere, log-sharpness,
-//    non-negative amplitudes, analytic Jacobians). The held-out error of each
-//    gives the model-size path; the smallest model within `size_tolerance`
-//    of the best held-out error is kept ("no more lobes than the scene
-//    needs"), then refined further.
+// 4. Size path, from large to small: all merged lobes refined jointly by
+//    Levenberg-Marquardt (Ceres: axes as angles bounded to the hemisphere
+//    above the plane, log-sharpness, non-negative amplitudes, analytic
+//    Jacobians), then the weakest lobe removed and the rest refined, down to
+//    one. The smallest model within `size_tolerance` of the best held-out
+//    error is kept ("no more lobes than the scene needs") and refined further.
 // The cosine is integrated exactly (solver/cosine_integral.h) rather than
 // through the paper's one-SG fit.
 #pragma once
@@ -36,7 +36,7 @@ struct SgSolverOptions {
   int lobes = 0;          // > 0: exactly this many lobes (no model-size selection)
   int max_lobes = 32;     // longest selection path
   int dictionary_axes = 300;
-  std::vector<double> sharpness = {3, 8, 20, 50, 130, 350};
+  std::vector<double> sharpness = {0.5, 1.5, 4, 10, 25, 60, 150, 400};
   int fit_pixels = 16384;
   int holdout_pixels = 4096;
   double size_tolerance = 0.02;  // keep the smallest model within 2 % of the best held-out MSE
@@ -45,8 +45,6 @@ struct SgSolverOptions {
   double merge_overlap = 1.0;      // merge atoms closer than this many lobe widths
   int path_refine_iterations = 8;  // LM iterations after each lobe added on the path
   int refine_iterations = 25;      // final LM iterations of the chosen model (0: none)
-  double improvement = 0.01;       // a held-out drop smaller than this (relative) is no progress
-  int patience = 3;                // stop after this many steps without progress
   uint64_t seed = 0;
 
   // Presets of `--budget`: fast, balanced (default), best.

@@ -29,10 +29,35 @@ std::vector<size_t> ActiveLobes(const ShadowPlaneModel& model, const SgLighting&
 
 }  // namespace
 
-void PlaneAngles(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* theta,
-                 std::vector<Eigen::Vector3f>* witness) {
-  if (model.HasCones()) model.cones.Angles(axes, theta, witness);
-  else SignedAnglesWithWitness(model.occluders, model.points, axes, theta, witness, model.search);
+// sigmoid(z) = 1 - 9e-14 at z = 30: beyond, the lobe is fully visible.
+constexpr double kSigmoidSaturation = 30.0;
+
+float VisibilityCap(const ProductLobe& product) {
+  return static_cast<float>(kSigmoidSaturation / VisibilitySteepness(product.lambda_prime));
+}
+
+std::vector<float> OccluderConeCosines(const std::vector<SphereTree>& trees, const std::vector<Eigen::Vector3d>& points) {
+  std::vector<Sphere> bounds;
+  for (const auto& t : trees)
+    if (!t.nodes.empty()) bounds.push_back(SubtreeBounds(t)[0]);
+  std::vector<float> out(points.size(), 1.0f);
+  for (size_t i = 0; i < points.size(); ++i) {
+    double c = 1;
+    for (const Sphere& b : bounds) {
+      if (b.empty()) continue;
+      const double d = (b.centre - points[i]).norm();
+      // Inside the bound: the caster may cover the whole hemisphere.
+      c = std::min(c, d > b.radius ? std::sqrt(1 - (b.radius / d) * (b.radius / d)) : 0.0);
+    }
+    out[i] = static_cast<float>(c);
+  }
+  return out;
+}
+
+void PlaneAngles(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3d>& axes,
+                 const std::vector<float>& caps, Eigen::MatrixXf* theta, std::vector<Eigen::Vector3f>* witness) {
+  if (model.HasCones()) model.cones.Angles(axes, theta, witness, &caps);
+  else SignedAnglesWithWitness(model.occluders, model.points, axes, theta, witness, model.search, &caps);
 }
 
 ShadowPlaneModel MakeShadowPlaneModel(const Scene& scene, const PlanePixels& pixels) {
@@ -45,6 +70,7 @@ ShadowPlaneModel MakeShadowPlaneModel(const Scene& scene, const PlanePixels& pix
     SHADOWSG_CHECK(o->sphere_tree.has_value());
     model.occluders.push_back(TransformSphereTree(*o->sphere_tree, o->o2w));
   }
+  model.occluder_cos = OccluderConeCosines(model.occluders, model.points);
   return model;
 }
 
@@ -53,19 +79,22 @@ std::vector<Eigen::Vector3f> RenderShadowPlane(const ShadowPlaneModel& model, co
   const std::vector<size_t> active = ActiveLobes(model, lighting, &axes);
   std::vector<ProductLobe> products;
   for (size_t i : active) products.push_back(EvalProductLobe(lighting.lobes[i].axis, lighting.lobes[i].sharpness, model.normal, model.cosine));
+  std::vector<float> caps;
+  for (const ProductLobe& p : products) caps.push_back(VisibilityCap(p));
   std::vector<Eigen::Vector3f> out(model.points.size(), Eigen::Vector3f::Zero());
   Eigen::MatrixXf theta;
   const size_t chunk_size = model.HasCones() ? model.points.size() : kRenderChunk;
   for (size_t begin = 0; begin < model.points.size(); begin += chunk_size) {
     const size_t end = std::min(model.points.size(), begin + chunk_size);
     const std::vector<Eigen::Vector3d> chunk(model.points.begin() + begin, model.points.begin() + end);
-    if (model.HasCones()) model.cones.Angles(axes, &theta, nullptr);
-    else SignedAngles(model.occluders, chunk, axes, &theta, model.search);
+    if (model.HasCones()) model.cones.Angles(axes, &theta, nullptr, &caps);
+    else SignedAnglesWithWitness(model.occluders, chunk, axes, &theta, nullptr, model.search, &caps);
 #pragma omp parallel for schedule(static)
     for (long k = 0; k < static_cast<long>(chunk.size()); ++k) {
       Eigen::Vector3d sum = Eigen::Vector3d::Zero();
       for (size_t j = 0; j < active.size(); ++j) {
-        const LobeShading s = ShadeLobe(products[j], theta(k, j), Eigen::Vector3d::Zero());
+        const LobeShading s = ShadeLobe(products[j], theta(k, j), Eigen::Vector3d::Zero(),
+                                        model.cap_occlusion ? model.occluder_cos[begin + k] : kNoOcclusionCap);
         sum += s.value * lighting.lobes[active[j]].amplitude;
       }
       out[begin + k] = (model.albedo[begin + k].cast<double>().cwiseProduct(sum) / M_PI).cast<float>();
@@ -84,9 +113,11 @@ double MseAndGradient(const ShadowPlaneModel& model, const SgLighting& lighting,
   std::vector<Eigen::Vector3d> xs;
   xs.reserve(points.size());
   for (size_t i : points) xs.push_back(model.points[i]);
+  std::vector<float> caps;
+  for (const ProductLobe& p : products) caps.push_back(VisibilityCap(p));
   Eigen::MatrixXf theta;
   std::vector<Eigen::Vector3f> witness;
-  SignedAnglesWithWitness(model.occluders, xs, axes, &theta, &witness, model.search);
+  SignedAnglesWithWitness(model.occluders, xs, axes, &theta, &witness, model.search, &caps);
 
   std::vector<Eigen::MatrixXd> chunk_grad(kReductionChunks, Eigen::MatrixXd::Zero(static_cast<long>(na), 7));
   std::vector<double> chunk_loss(kReductionChunks, 0.0);
@@ -103,7 +134,8 @@ double MseAndGradient(const ShadowPlaneModel& model, const SgLighting& lighting,
         const double cosine = std::clamp(u.dot(lobe.axis), -1.0, 1.0);
         const Eigen::Vector3d dtheta = u.isZero() ? Eigen::Vector3d::Zero()
                                                    : Eigen::Vector3d(-u / std::max(std::sqrt(1 - cosine * cosine), 1e-9));
-        shade[j] = ShadeLobe(products[j], theta(static_cast<long>(k), static_cast<long>(j)), dtheta);
+        shade[j] = ShadeLobe(products[j], theta(static_cast<long>(k), static_cast<long>(j)), dtheta,
+                             model.cap_occlusion ? model.occluder_cos[i] : kNoOcclusionCap);
         sum += shade[j].value * lobe.amplitude;
       }
       const Eigen::Vector3d r = rho_over_pi.cwiseProduct(sum) - targets[i].cast<double>();

@@ -25,6 +25,10 @@ struct ShadowPlaneModel {
   CosineModel cosine = CosineModel::kSgProduct;
   // The reference code drops any lobe whose axis lies below the plane.
   bool upper_hemisphere_only = true;
+  // Cap broad lobes' occlusion by the caster's cone (ShadeLobe): per point the
+  // cosine of the half-angle of a cone around every caster.
+  bool cap_occlusion = false;
+  std::vector<float> occluder_cos;
   // Optional cone tables of `points` (PrepareCones): repeated renders of the
   // same points then skip the per-point table set-up.
   OccluderCones cones;
@@ -34,9 +38,18 @@ struct ShadowPlaneModel {
 };
 
 // theta (and witness directions, when non-null) of every point of the model for
-// the axes, using the prepared cones when there are.
-void PlaneAngles(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* theta,
-                 std::vector<Eigen::Vector3f>* witness);
+// the lobes' axes, using the prepared cones when there are. theta is only
+// resolved up to where the lobe's visibility sigmoid saturates (VisibilityCap).
+void PlaneAngles(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3d>& axes,
+                 const std::vector<float>& caps, Eigen::MatrixXf* theta, std::vector<Eigen::Vector3f>* witness);
+
+// Per point, the cosine of the half-angle of the cone around each caster's
+// bounding sphere (the smallest over casters; 0 inside a bound).
+std::vector<float> OccluderConeCosines(const std::vector<SphereTree>& trees, const std::vector<Eigen::Vector3d>& points);
+
+// The theta beyond which sigmoid(k(lambda') theta) is 1 (and its derivative 0)
+// to double precision: no occluder search needs to look further.
+float VisibilityCap(const ProductLobe& product);
 
 // The model of a scene's plane pixels; every caster must have a sphere tree.
 ShadowPlaneModel MakeShadowPlaneModel(const Scene& scene, const PlanePixels& pixels);

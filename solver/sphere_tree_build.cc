@@ -1,10 +1,10 @@
 #include "solver/sphere_tree_build.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <numeric>
 #include <unordered_set>
 
 #include "calib/error.h"
@@ -84,7 +84,7 @@ bool BuildLists(const PointKdTree& kd, const std::vector<Candidate>& cands, doub
   const Points& pts = kd.points();
   lists->assign(cands.size(), {});
   size_t total = 0;
-  bool too_big = false;
+  std::atomic<bool> too_big{false};
 #pragma omp parallel
   {
     std::vector<int> near;

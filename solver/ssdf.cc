@@ -23,6 +23,9 @@ constexpr float kHalfPiF = static_cast<float>(kPi / 2);
 // Steps of the enclosing-sphere walk for a subtree whose own sphere does not
 // enclose its children: trades tightness (~1/sqrt(n)) for time, per tree.
 constexpr int kEnclosingIterations = 32;
+// A node counts as enclosing its children when it misses by no more than
+// rounding (a transformed tree); its bound is recomputed exactly anyway.
+constexpr double kEnclosesTolerance = 1e-9;
 
 // A float cone table is evaluated with float rounding (~1e-7 rad per term); a
 // subtree is skipped only when its bound beats the best by more than this, so
@@ -430,20 +433,22 @@ std::vector<Sphere> SubtreeBounds(const SphereTree& tree) {
       continue;
     }
     // A node that already encloses its children (every tree this project
-    // builds) is kept, shrunk to touch the farthest child.
+    // builds, up to the rounding of a transform) is kept, shrunk to touch the
+    // farthest child.
     const Sphere& own = tree.nodes[i];
+    Sphere about_own{own.centre, kInf};
     if (!own.empty()) {
-      const double r = radius_about(own.centre);
-      if (r <= own.radius) {
-        bounds[i] = {own.centre, r};
+      about_own.radius = radius_about(own.centre);
+      if (about_own.radius <= own.radius * (1 + kEnclosesTolerance)) {
+        bounds[i] = about_own;
         continue;
       }
     }
     // Otherwise a sphere around the children's bounds.
     std::vector<Sphere> kid_spheres;
     for (const Sphere* s : kids) kid_spheres.push_back(*s);
-    const Sphere best = EnclosingSphere(kid_spheres, kEnclosingIterations);
-    bounds[i] = best;
+    const Sphere walked = EnclosingSphere(kid_spheres, kEnclosingIterations);
+    bounds[i] = walked.radius < about_own.radius ? walked : about_own;
   }
   return bounds;
 }
@@ -473,25 +478,30 @@ double SignedAngleToOccluders(const std::vector<SphereTree>& world_trees, const 
 
 void SignedAngles(const std::vector<SphereTree>& world_trees, const std::vector<Eigen::Vector3d>& points,
                   const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* out, SsdfSearch search) {
-  SignedAnglesWithWitness(world_trees, points, axes, out, nullptr, search);
+  SignedAnglesWithWitness(world_trees, points, axes, out, nullptr, search, nullptr);
 }
 
 namespace {
 
 // theta (and the witness direction) of every axis for one point's cone table.
 void PointAngles(const FlatTrees& flat, const ConeTable& table, const std::vector<Eigen::Vector3f>& unit,
-                 const std::vector<int>& order, SsdfSearch search, std::vector<StackEntry>* stack, float* out_row,
-                 long out_stride, Eigen::Vector3f* witness_row) {
+                 const std::vector<int>& order, SsdfSearch search, const std::vector<float>* caps,
+                 std::vector<StackEntry>* stack, float* out_row, long out_stride, Eigen::Vector3f* witness_row) {
+  constexpr size_t kNone = std::numeric_limits<size_t>::max();
   size_t warm = flat.trees[0].offset + flat.trees[0].leaf_begin;
   for (int a : order) {
     const float mx = unit[a].x(), my = unit[a].y(), mz = unit[a].z();
     float best;
     size_t argmin = warm;
     if (search == SsdfSearch::kExact) {
-      // The previous axis's best leaf gives a first upper bound.
-      best = ConeTheta(table, warm, mx, my, mz);
-      for (const FlatTree& tr : flat.trees) ExactTreeF(tr, table, mx, my, mz, stack, &best, &warm);
-      argmin = warm;
+      // Start from the cap (no leaf above it matters) or the previous axis's
+      // best leaf, whichever is lower: both prune the descent.
+      best = caps ? (*caps)[a] : kInfF;
+      argmin = kNone;
+      const float warm_value = ConeTheta(table, warm, mx, my, mz);
+      if (warm_value < best) best = warm_value, argmin = warm;
+      for (const FlatTree& tr : flat.trees) ExactTreeF(tr, table, mx, my, mz, stack, &best, &argmin);
+      if (argmin != kNone) warm = argmin;
     } else {
       best = kInfF;
       for (const FlatTree& tr : flat.trees) {
@@ -501,7 +511,9 @@ void PointAngles(const FlatTrees& flat, const ConeTable& table, const std::vecto
       }
     }
     out_row[a * out_stride] = best;
-    if (witness_row) witness_row[a] = Eigen::Vector3f(table.ux[argmin], table.uy[argmin], table.uz[argmin]);
+    if (witness_row)
+      witness_row[a] = argmin == kNone ? Eigen::Vector3f::Zero()
+                                       : Eigen::Vector3f(table.ux[argmin], table.uy[argmin], table.uz[argmin]);
   }
 }
 
@@ -515,8 +527,10 @@ std::vector<Eigen::Vector3f> UnitAxes(const std::vector<Eigen::Vector3d>& axes) 
 
 void SignedAnglesWithWitness(const std::vector<SphereTree>& world_trees, const std::vector<Eigen::Vector3d>& points,
                              const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* out,
-                             std::vector<Eigen::Vector3f>* witness, SsdfSearch search) {
+                             std::vector<Eigen::Vector3f>* witness, SsdfSearch search,
+                             const std::vector<float>* caps) {
   CheckTrees(world_trees);
+  SHADOWSG_CHECK(!caps || caps->size() == axes.size());
   for (const auto& t : world_trees) SHADOWSG_CHECK(t.nodes.empty() || t.branching <= 64);
   const long np = static_cast<long>(points.size());
   const int na = static_cast<int>(axes.size());
@@ -542,7 +556,7 @@ void SignedAnglesWithWitness(const std::vector<SphereTree>& world_trees, const s
 #pragma omp for schedule(dynamic, kChunk)
     for (long p = 0; p < np; ++p) {
       FillConeTable(flat, points[p], &table);
-      PointAngles(flat, table, unit, order, search, &stack, &(*out)(p, 0), out->rows(),
+      PointAngles(flat, table, unit, order, search, caps, &stack, &(*out)(p, 0), out->rows(),
                   witness ? &(*witness)[static_cast<size_t>(p) * na] : nullptr);
     }
   }
@@ -577,7 +591,8 @@ OccluderCones::OccluderCones(const std::vector<SphereTree>& world_trees, const s
 size_t OccluderCones::size() const { return impl_ ? impl_->tables.size() : 0; }
 
 void OccluderCones::Angles(const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* out,
-                           std::vector<Eigen::Vector3f>* witness) const {
+                           std::vector<Eigen::Vector3f>* witness, const std::vector<float>* caps) const {
+  SHADOWSG_CHECK(!caps || caps->size() == axes.size());
   const long np = static_cast<long>(impl_->tables.size());
   const int na = static_cast<int>(axes.size());
   out->resize(np, na);
@@ -595,7 +610,7 @@ void OccluderCones::Angles(const std::vector<Eigen::Vector3d>& axes, Eigen::Matr
     stack.reserve(1024);
 #pragma omp for schedule(dynamic, 32)
     for (long p = 0; p < np; ++p)
-      PointAngles(impl_->flat, impl_->tables[p], unit, order, impl_->search, &stack, &(*out)(p, 0), out->rows(),
+      PointAngles(impl_->flat, impl_->tables[p], unit, order, impl_->search, caps, &stack, &(*out)(p, 0), out->rows(),
                   witness ? &(*witness)[static_cast<size_t>(p) * na] : nullptr);
   }
 }

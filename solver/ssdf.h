@@ -52,7 +52,10 @@ double SignedAngleBruteForce(const std::vector<SphereTree>& world_trees, const E
                              const Eigen::Vector3d& mu);
 // theta for every (point, axis) pair, multithreaded (OpenMP): out(p, a), resized
 // to points x axes. Hot path of the solver: single precision with per-point
-// cone tables; agrees with SignedAngleToOccluders to about 1e-5 rad (float).
+// cone tables (kExact also bounds each subtree, per point, by the cap around
+// its children's cones), axes visited in a coherent order with the previous
+// axis's best leaf as the first bound, and an AVX2 kernel where the CPU has
+// one; agrees with SignedAngleToOccluders to about 1e-5 rad (float).
 void SignedAngles(const std::vector<SphereTree>& world_trees, const std::vector<Eigen::Vector3d>& points,
                   const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* out,
                   SsdfSearch search = SsdfSearch::kExact);
@@ -64,7 +67,8 @@ void SignedAngles(const std::vector<SphereTree>& world_trees, const std::vector<
 // subgradient the solvers use.
 void SignedAnglesWithWitness(const std::vector<SphereTree>& world_trees, const std::vector<Eigen::Vector3d>& points,
                              const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* out,
-                             std::vector<Eigen::Vector3f>* witness, SsdfSearch search = SsdfSearch::kExact);
+                             std::vector<Eigen::Vector3f>* witness, SsdfSearch search = SsdfSearch::kExact,
+                             const std::vector<float>* caps = nullptr);  // as OccluderCones::Angles
 
 // The cone tables of a fixed set of points, computed once: the occluders seen
 // from a plane point never change while the lighting is fitted, so solvers
@@ -77,8 +81,12 @@ class OccluderCones {
                 SsdfSearch search = SsdfSearch::kExact);
   size_t size() const;
   // As SignedAnglesWithWitness for the prepared points (witness may be null).
+  // caps (kExact only; one per axis, optional): theta values at or above the
+  // cap are not needed exactly: the search stops there and returns the cap
+  // with a zero witness. The soft visibility sigmoid(k theta) is 1 to double
+  // precision beyond a few tens over k, so solvers pass that.
   void Angles(const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* theta,
-              std::vector<Eigen::Vector3f>* witness) const;
+              std::vector<Eigen::Vector3f>* witness, const std::vector<float>* caps = nullptr) const;
 
  private:
   struct Impl;

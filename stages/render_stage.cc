@@ -1,7 +1,5 @@
 #include "stages/render_stage.h"
 
-#include <cstdio>
-
 #include "calib/error.h"
 #include "solver/plane_pixels.h"
 #include "stages/io/image_io.h"

@@ -76,6 +76,7 @@ LightingEstimate SolveWithSg(Scene& scene, const fs::path& scene_dir, const Plan
   ShadowPlaneModel model = MakeShadowPlaneModel(scene, pixels);
   model.search = o.ssdf == "c2f" ? SsdfSearch::kCoarseToFine : SsdfSearch::kExact;
   model.cosine = CosineModel::kExact;
+  model.cap_occlusion = true;
   model.upper_hemisphere_only = false;
   SgSolverOptions so = SgSolverOptions::Budget(o.budget);
   so.lobes = o.lobes;

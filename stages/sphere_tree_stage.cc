@@ -17,6 +17,8 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr char kKeyTag[] = "# shadowsg sphere-tree key ";
+// The .sph empty-slot radius (stages/io/sph_io.cc, after the reference code).
+constexpr double kSphEmptyRadius = 1e-4;
 
 // FNV-1a, 64 bit (Fowler, Noll, Vo): a content hash for cache names, not security.
 class Fnv1a {
@@ -137,6 +139,13 @@ const SphereTree& EnsureSphereTree(SceneObject& object, const fs::path& scene_di
     ctx.Warn("sphere tree: " + object.mesh_path + ": the mesh is open (" + std::to_string(summary.boundary_edges) +
              " boundary edges); spheres may fill or miss parts of it");
   if (summary.inverted) ctx.Warn("sphere tree: " + object.mesh_path + ": faces wind inwards (negative volume)");
+  // The .sph readers (ours and the reference's) take radii <= 1e-4 for empty
+  // slots, whatever the unit: such spheres would be lost when read back.
+  int tiny = 0;
+  for (const Sphere& s : tree.nodes) tiny += !s.empty() && s.radius <= kSphEmptyRadius;
+  if (tiny > 0)
+    ctx.Warn("sphere tree: " + object.mesh_path + ": " + std::to_string(tiny) +
+             " spheres have radius <= 1e-4 and read back from .sph as empty slots; the mesh's unit is too small");
 
   const std::string text = SphTextWithKey(tree, key);
   bool written = false;

@@ -6,7 +6,6 @@
 #include "calib/error.h"
 #include "solver/light_envmap.h"
 #include "solver/primitives.h"
-#include "stages/io/atomic_file.h"
 #include "stages/io/image_io.h"
 #include "stages/io/lighting_io.h"
 #include "stages/io/mesh_io.h"

@@ -49,6 +49,44 @@ TEST(Conventions, ColmapPixelShift) {
   EXPECT_EQ(OpenCvToColmapPixel(ColmapToOpenCvPixel(p)), p);
 }
 
+TEST(Conventions, ColmapPoseIsWorldToCameraHamilton) {
+  // A quarter turn about z, w first: Hamilton gives R = [[0,-1,0],[1,0,0],[0,0,1]]
+  // (JPL would give its transpose).
+  ColmapPose pose;
+  pose.qvec = Eigen::Vector4d(std::sqrt(0.5), 0, 0, std::sqrt(0.5));
+  pose.tvec = Eigen::Vector3d(1, 2, 3);
+  const Eigen::Matrix4d c2w = ColmapPoseToC2w(pose);
+  const Eigen::Matrix3d R_wc = c2w.block<3, 3>(0, 0).transpose();
+  EXPECT_NEAR(R_wc(0, 1), -1, 1e-12);
+  EXPECT_NEAR(R_wc(1, 0), 1, 1e-12);
+  // x_cam = R x_world + t: the camera centre maps to the camera origin.
+  const Eigen::Vector3d centre = c2w.block<3, 1>(0, 3);
+  EXPECT_NEAR((R_wc * centre + pose.tvec).norm(), 0, 1e-12);
+  EXPECT_NEAR((centre - (-R_wc.transpose() * pose.tvec)).norm(), 0, 1e-12);
+  // A world point in front of the camera: c2w maps its camera coordinates back.
+  const Eigen::Vector3d xw(0.3, -0.2, 5.0);
+  const Eigen::Vector3d xc = R_wc * xw + pose.tvec;
+  EXPECT_NEAR((c2w.block<3, 3>(0, 0) * xc + centre - xw).norm(), 0, 1e-12);
+}
+
+TEST(Conventions, ColmapPoseRoundTripAndNormalisation) {
+  ColmapPose pose;
+  pose.qvec = Eigen::Vector4d(0.7, -0.1, 0.5, 0.3).normalized();
+  pose.tvec = Eigen::Vector3d(-0.4, 1.5, 2.0);
+  const ColmapPose back = C2wToColmapPose(ColmapPoseToC2w(pose));
+  EXPECT_NEAR((back.qvec - pose.qvec).norm(), 0, 1e-12);
+  EXPECT_NEAR((back.tvec - pose.tvec).norm(), 0, 1e-12);
+  // A slightly non-unit quaternion (as rounded in a text model) still gives a rotation.
+  ColmapPose rounded = pose;
+  rounded.qvec *= 1.001;
+  const Eigen::Matrix3d R = ColmapPoseToC2w(rounded).block<3, 3>(0, 0);
+  EXPECT_NEAR((R.transpose() * R - Eigen::Matrix3d::Identity()).norm(), 0, 1e-12);
+  // qw >= 0 on the way out (q and -q are the same rotation).
+  ColmapPose negated = pose;
+  negated.qvec = -pose.qvec;
+  EXPECT_GE(C2wToColmapPose(ColmapPoseToC2w(negated)).qvec[0], 0);
+}
+
 TEST(Conventions, UsdRoundTripAndAxes) {
   const Eigen::Vector3d d = Eigen::Vector3d(0.2, -0.5, 0.7).normalized();
   EXPECT_NEAR((UsdToWorldDirection(WorldToUsdDirection(d)) - d).norm(), 0, 1e-12);

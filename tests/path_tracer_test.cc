@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "calib/camera.h"
+#include "calib/conventions.h"
 #include "solver/envmap.h"
 #include "solver/light_envmap.h"
 #include "solver/metrics.h"
@@ -163,6 +164,36 @@ TEST(PathTracer, SunShadowOfABoxFallsWhereGeometrySaysIt) {
   }
   EXPECT_GT(shadowed, 50);
   EXPECT_GT(lit_pixels, 2000);
+}
+
+TEST(PathTracer, EnvMapTexelLightsLikeASunFromItsDirection) {
+  // An env map that is dark but for one texel casts the box's shadow where a
+  // sun along EnvTexelDirection(texel) does: the map's orientation, seen
+  // through the renderer.
+  Scene scene = PlaneScene(48);
+  scene.objects.push_back(Object(MakeBox({0.3, 0.2, 0.25}), {0, 0, 0.25}, Eigen::Vector3d::Constant(0.5)));
+  const int h = 256, w = 2 * h, u = 170, v = 50;
+  Image env(w, h, 3, 0.0f);
+  const double irradiance = 2.0;
+  for (int c = 0; c < 3; ++c) env.at(u, v, c) = static_cast<float>(irradiance / EnvTexelSolidAngle(v, w, h));
+  LightSet as_env, as_sun;
+  as_env.env = env;
+  as_sun.suns.push_back({EnvTexelDirection(u, v, w, h), Eigen::Vector3d::Constant(irradiance), 0.0});
+  PathTraceOptions opt;
+  opt.samples_per_pixel = 16;
+  opt.max_bounces = 0;
+  const Image a = RenderPathTraced(scene, as_env, opt);
+  const Image b = RenderPathTraced(scene, as_sun, opt);
+  const Image mask = PlanePixelMask(FindPlanePixels(scene, BuildRayCaster(scene.Casters())));
+  const ImageMetrics m = CompareImages(a, b, mask);
+  EXPECT_GT(m.psnr, 40.0);  // differences only in the penumbra of the 0.7-degree texel
+  const Eigen::Vector3d ma = MeanRgb(a), mb = MeanRgb(b);
+  EXPECT_NEAR(ma.x(), mb.x(), 0.01 * mb.x());
+  // A texel on the other side of the map leaves the shadow elsewhere.
+  Image flipped(w, h, 3, 0.0f);
+  for (int c = 0; c < 3; ++c) flipped.at((u + w / 2) % w, v, c) = env.at(u, v, c);
+  as_env.env = flipped;
+  EXPECT_LT(CompareImages(RenderPathTraced(scene, as_env, opt), b, mask).psnr, 20.0);
 }
 
 TEST(PathTracer, SmallSphereAppearsWhereProjectToPixelPredicts) {

@@ -29,6 +29,14 @@ double Diagonal(const TriangleMesh& m) {
   return (hi - lo).norm();
 }
 
+// Smaller than the defaults, for tests that check structure, not tightness.
+SphereTreeBuildOptions Quick() {
+  SphereTreeBuildOptions o;
+  o.surface_points = 10000;
+  o.medial_spheres = 2000;
+  return o;
+}
+
 // Index of a non-empty sphere of `level` holding p, or -1.
 int Holder(const SphereTree& t, int level, const Eigen::Vector3d& p, double slack) {
   for (size_t i = t.LevelBegin(level); i < t.LevelEnd(level); ++i)
@@ -84,7 +92,7 @@ TEST(SphereTreeBuild, CoversTheSurfaceTightly) {
 }
 
 TEST(SphereTreeBuild, ChildrenLieInsideTheirParents) {
-  const SphereTree t = BuildSphereTree(MakeTorus(0.5, 0.15, 32, 16), SphereTreeBuildOptions{});
+  const SphereTree t = BuildSphereTree(MakeTorus(0.5, 0.15, 32, 16), Quick());
   for (size_t i = 0; i < t.LevelBegin(t.levels - 1); ++i)
     for (int k = 0; k < t.branching; ++k) {
       const Sphere& c = t.nodes[t.FirstChild(i) + k];
@@ -96,7 +104,7 @@ TEST(SphereTreeBuild, ChildrenLieInsideTheirParents) {
 
 TEST(SphereTreeBuild, DeterministicAcrossThreadCounts) {
   const TriangleMesh m = MakeTorus(0.5, 0.2, 32, 16);
-  SphereTreeBuildOptions o;
+  SphereTreeBuildOptions o = Quick();
   o.seed = 7;
   const int threads = omp_get_max_threads();
   omp_set_num_threads(1);
@@ -112,7 +120,7 @@ TEST(SphereTreeBuild, DeterministicAcrossThreadCounts) {
 }
 
 TEST(SphereTreeBuild, SphRoundTrip) {
-  const SphereTree t = BuildSphereTree(MakeBox(Eigen::Vector3d(0.5, 0.5, 0.5)), SphereTreeBuildOptions{});
+  const SphereTree t = BuildSphereTree(MakeBox(Eigen::Vector3d(0.5, 0.5, 0.5)), Quick());
   std::stringstream s;
   WriteSph(s, t);
   const SphereTree r = ReadSph(s, "memory");

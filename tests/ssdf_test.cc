@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include "solver/primitives.h"
+#include "solver/sphere_tree_build.h"
+
 #include <cmath>
 #include <limits>
 #include <random>
@@ -184,6 +187,45 @@ TEST(Ssdf, BatchPrecisionNearTouchingSphere) {
   for (size_t p = 0; p < points.size(); ++p)
     for (size_t a = 0; a < axes.size(); ++a)
       EXPECT_NEAR(out(p, a), SignedAngleBruteForce({t}, points[p], axes[a]), 1e-5);
+}
+
+TEST(Ssdf, BuiltTreeOnAPlane) {
+  // A built tree (children inside parents, so bounds are the nodes
+  // themselves) of a torus standing on z = 0, seen from plane points, and a
+  // second tree beside it.
+  SphereTreeBuildOptions o;
+  o.surface_points = 8000;
+  o.medial_spheres = 2000;
+  const SphereTree object = BuildSphereTree(MakeTorus(0.5, 0.2, 32, 16), o);
+  Eigen::Matrix4d stand = Eigen::Matrix4d::Identity();
+  stand.block<3, 3>(0, 0) = Eigen::AngleAxisd(kPi / 2, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  stand(2, 3) = 0.7;
+  Eigen::Matrix4d beside = stand;
+  beside(0, 3) = 1.5;
+  beside.block<3, 3>(0, 0) *= 0.5;
+  const std::vector<SphereTree> trees = {TransformSphereTree(object, stand), TransformSphereTree(object, beside)};
+  std::mt19937_64 rng(4);
+  std::uniform_real_distribution<double> u(-2.5, 2.5);
+  std::vector<Eigen::Vector3d> points, axes;
+  for (int i = 0; i < 200; ++i) points.emplace_back(u(rng), u(rng), 0.0);
+  for (int i = 0; i < 40; ++i) {
+    Eigen::Vector3d a = RandomUnit(rng);
+    a.z() = std::abs(a.z());
+    axes.push_back(a);
+  }
+  Eigen::MatrixXf exact, c2f;
+  SignedAngles(trees, points, axes, &exact);
+  SignedAngles(trees, points, axes, &c2f, SsdfSearch::kCoarseToFine);
+  int c2f_exact = 0;
+  for (size_t p = 0; p < points.size(); ++p)
+    for (size_t a = 0; a < axes.size(); ++a) {
+      const double brute = SignedAngleBruteForce(trees, points[p], axes[a]);
+      ASSERT_NEAR(SignedAngleToOccluders(trees, points[p], axes[a]), brute, 1e-9);
+      ASSERT_NEAR(exact(p, a), brute, 2e-5);
+      EXPECT_GE(c2f(p, a), exact(p, a) - 2e-5);
+      c2f_exact += c2f(p, a) == exact(p, a);
+    }
+  EXPECT_GT(c2f_exact, 0.5 * points.size() * axes.size());
 }
 
 }  // namespace

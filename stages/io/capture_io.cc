@@ -126,6 +126,58 @@ Correspondences ReadCorrespondences(std::istream& in, const std::string& name) {
   return c;
 }
 
+Json PlaneFileToJson(const PlaneFile& f) {
+  Json j = f.extra.is_object() ? f.extra : Json::object();
+  Json plane{{"xyz", ToJson(f.xyz)}, {"normal", ToJson(f.normal)}};
+  if (f.half_extent) plane["scale"] = ToJson(Eigen::Vector3d(f.half_extent->x(), f.half_extent->y(), 1.0));
+  j["plane"] = plane;
+  Json hero{{"image", f.hero_image}, {"c2w", ToJson(f.hero_c2w)}};
+  if (f.hero_camera) {
+    Camera cam = *f.hero_camera;
+    cam.c2w = f.hero_c2w;
+    hero["camera"] = CameraToJson(cam);
+  }
+  j["hero"] = hero;
+  j["scale_source"] = f.scale_source;
+  j["registered_images"] = f.registered_images;
+  j["plane_inliers"] = f.plane_inliers;
+  return j;
+}
+
+PlaneFile ParsePlaneFile(const Json& json, const std::string& name) {
+  const JsonReader r(json, name);
+  if (!json.is_object()) r.Fail("", "expected a JSON object");
+  PlaneFile f;
+  const JsonReader plane = r.Child("plane");
+  f.xyz = plane.Vec3("xyz");
+  f.normal = plane.Vec3("normal");
+  if (std::abs(f.normal.norm() - 1) > 1e-3) plane.Fail("normal", "not a unit vector");
+  f.normal.normalize();
+  if (plane.Has("scale")) {
+    const Eigen::Vector3d s = plane.Vec3("scale");
+    if (!(s.x() > 0 && s.y() > 0)) plane.Fail("scale", "half extents must be positive");
+    f.half_extent = s.head<2>();
+  }
+  const JsonReader hero = r.Child("hero");
+  f.hero_image = hero.String("image");
+  f.hero_c2w = hero.Mat4("c2w");
+  const Eigen::Matrix3d R = f.hero_c2w.topLeftCorner<3, 3>();
+  if ((f.hero_c2w.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).norm() > 1e-6 ||
+      (R.transpose() * R - Eigen::Matrix3d::Identity()).norm() > 1e-3 || R.determinant() < 0)
+    hero.Fail("c2w", "not a rigid transform");
+  if (hero.Has("camera")) f.hero_camera = ParseCamera(hero.Child("camera"));
+  f.scale_source = r.String("scale_source");
+  if (f.scale_source != "apriltag" && f.scale_source != "distance" && f.scale_source != "none")
+    r.Fail("scale_source", "expected \"apriltag\", \"distance\" or \"none\", got \"" + f.scale_source + "\"");
+  f.registered_images = r.Int("registered_images");
+  f.plane_inliers = r.Int("plane_inliers");
+  f.extra = json;
+  for (const char* k : {"plane", "hero", "scale_source", "registered_images", "plane_inliers"}) f.extra.erase(k);
+  return f;
+}
+
+PlaneFile ReadPlaneFile(const fs::path& path) { return ParsePlaneFile(ReadJsonFile(path), path.string()); }
+
 Correspondences ReadCorrespondencesFile(const fs::path& path) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) throw InputError(path.string(), "file not found");

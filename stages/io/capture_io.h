@@ -57,4 +57,26 @@ struct Correspondences {
 Correspondences ReadCorrespondences(std::istream& in, const std::string& name_for_errors);
 Correspondences ReadCorrespondencesFile(const std::filesystem::path& path);
 
+// ---- plane.json (`shadowsg plane`) ----------------------------------------
+// The ground plane and the hero camera in the registered world frame (plane
+// z = 0, +z its normal towards the cameras).
+struct PlaneFile {
+  Eigen::Vector3d xyz = Eigen::Vector3d::Zero();
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
+  // "plane": {"scale": [hx, hy, 1]}: half extents of the rectangle the plane's
+  // reconstructed points cover (optional extra key).
+  std::optional<Eigen::Vector2d> half_extent;
+  std::string hero_image;
+  Eigen::Matrix4d hero_c2w = Eigen::Matrix4d::Identity();
+  std::optional<Camera> hero_camera;  // "hero": {"camera": {...}}: the intrinsics used (extra key)
+  std::string scale_source = "none";  // "apriltag", "distance" or "none" (COLMAP's units)
+  int registered_images = 0;
+  int plane_inliers = 0;
+  Json extra = Json::object();  // further keys, written as they are
+};
+
+Json PlaneFileToJson(const PlaneFile& file);
+PlaneFile ParsePlaneFile(const Json& json, const std::string& name_for_errors);
+PlaneFile ReadPlaneFile(const std::filesystem::path& path);
+
 }  // namespace shadowsg

@@ -1,0 +1,76 @@
+#include "stages/eval_stage.h"
+
+#include <cstdio>
+
+#include "calib/error.h"
+#include "solver/envmap.h"
+#include "solver/light_transport.h"
+#include "solver/plane_pixels.h"
+#include "solver/shadow_plane.h"
+#include "stages/evaluation.h"
+#include "stages/io/lighting_io.h"
+#include "stages/io/scene_io.h"
+#include "stages/sphere_tree_stage.h"
+#include "stages/stage_util.h"
+
+namespace shadowsg {
+namespace fs = std::filesystem;
+
+std::string EvalOptions::Validate() const {
+  if (sg_model != "sg" && sg_model != "paper") return "--sg-model: expected sg or paper";
+  if (map_height < 1 || map_height > 32) return "--map-height: expected 1 to 32 rows";
+  return "";
+}
+
+void RunEval(const fs::path& scene_dir, const fs::path& lighting_file, const fs::path& out_dir,
+             const EvalOptions& o, const StageContext& ctx) {
+  Stopwatch clock;
+  if (const std::string e = o.Validate(); !e.empty()) throw InputError("", e);
+  const LightSet lights = ReadLighting(lighting_file);
+  if (!lights.suns.empty() || !lights.areas.empty())
+    throw InputError(lighting_file.string(), "eval scores distant lighting (SG or env map), not analytic lights");
+  Scene scene = LoadScene(scene_dir);
+  const RayCaster casters = BuildRayCaster(scene.Casters());
+  const PlanePixels pixels = FindPlanePixels(scene, casters);
+  if (pixels.size() == 0)
+    throw InputError((scene_dir / "scene.json").string(), "no shadow-plane pixels: the camera does not see the plane");
+
+  LightingEstimate est;
+  est.method = "eval";
+  est.plane_render.assign(pixels.size(), Eigen::Vector3f::Zero());
+  Stopwatch render_clock;
+  if (lights.sg) {
+    for (auto& obj : scene.objects)
+      if (obj.is_train) EnsureSphereTree(obj, scene_dir, ctx);
+    ShadowPlaneModel model = MakeShadowPlaneModel(scene, pixels);
+    if (o.sg_model == "sg") {
+      model.cosine = CosineModel::kExact;
+      model.cap_occlusion = true;
+      model.upper_hemisphere_only = false;
+    }
+    est.plane_render = RenderShadowPlane(model, *lights.sg);
+    est.sg = lights.sg;
+    est.envmap = SgToEnvMap(*lights.sg, kEnvMapOutputHeight);
+    est.n_lobes = static_cast<int>(lights.sg->lobes.size());
+    est.n_params = 6 * est.n_lobes;
+  }
+  if (lights.env) {
+    const int rows = o.map_height;
+    const Image env = ResampleEnvMap(*lights.env, 2 * rows);
+    const LightTransport transport(scene, pixels.point, casters, rows, ctx.Progress("transport"));
+    const std::vector<Eigen::Vector3f> r = transport.RenderAll(transport.map().FromEnvMap(env));
+    for (size_t k = 0; k < r.size(); ++k) est.plane_render[k] += r[k];
+    est.envmap = *lights.env;
+    est.n_params = 3 * lights.env->width * lights.env->height / 2;
+  }
+  est.solve_seconds = 0;
+  est.extra = Json{{"lighting", lighting_file.string()}, {"render_seconds", render_clock.Seconds()},
+                   {"sg_model", o.sg_model}, {"map_rows", o.map_height}};
+  const Json m = ScoreAndWrite(scene, pixels, est, out_dir, clock, ctx);
+  char line[200];
+  std::snprintf(line, sizeof(line), "eval: psnr %.2f dB, ssim %.4f (%s)", m["psnr"].get<double>(),
+                m["ssim"].get<double>(), lighting_file.filename().string().c_str());
+  ctx.Log(line);
+}
+
+}  // namespace shadowsg
