@@ -92,7 +92,8 @@ struct FitSystem {
 
 // Solves for the texels x 3 radiance of the listed channels (others zero).
 Eigen::MatrixX3d FitMap(const LightTransport& transport, const FitSystem& system, const Eigen::Vector3d& k,
-                        const std::vector<int>& channels, const BaselineOptions& options, BaselineResult* result) {
+                        const Eigen::Vector3d& prior_scale, const std::vector<int>& channels,
+                        const BaselineOptions& options, BaselineResult* result) {
   const int n = transport.cols();
   const Eigen::Index m = static_cast<Eigen::Index>(system.rows.size());
   Eigen::MatrixX3d x = Eigen::MatrixX3d::Zero(n, 3);
@@ -148,8 +149,12 @@ Eigen::MatrixX3d FitMap(const LightTransport& transport, const FitSystem& system
       const Eigen::SparseMatrix<double> d = HemisphereLaplacian(options.map_rows);
       const Eigen::MatrixXd dtd = Eigen::MatrixXd(d.transpose() * d);
       for (int c : channels) {
-        Eigen::MatrixXd m = k[c] * k[c] * h + options.laplacian_weight * dtd;
-        m.diagonal().array() += options.identity_weight;
+        // The reference solves for (albedo/pi) x (its map absorbs the
+        // Lambertian factor) with (H + wL D^T D + wI I): on our radiance map
+        // the same weights act as w (albedo/pi)^2, which keeps its balance
+        // of data and prior.
+        Eigen::MatrixXd m = k[c] * k[c] * h + prior_scale[c] * options.laplacian_weight * dtd;
+        m.diagonal().array() += prior_scale[c] * options.identity_weight;
         const Eigen::VectorXd rhs = k[c] * f.col(c);
         Eigen::LLT<Eigen::MatrixXd> llt(m);
         if (llt.info() == Eigen::Success) {
@@ -341,6 +346,13 @@ BaselineResult SolveBaseline(const Scene& scene, const PlanePixels& pixels, cons
       w.row(group[i]) += kappa.cwiseProduct(kappa).transpose();
       p.row(group[i]) += kappa.cwiseProduct(observed[i]).transpose();
     }
+    // SH21's prior weights scale with the mean squared albedo/pi (see FitMap).
+    Eigen::Vector3d prior_scale = Eigen::Vector3d::Zero();
+    for (size_t i = 0; i < rows; ++i) {
+      const Eigen::Vector3d kappa = gain[i] * transport.AlbedoOverPi(i);
+      prior_scale += kappa.cwiseProduct(kappa);
+    }
+    prior_scale /= std::max<double>(1, static_cast<double>(rows));
     // With a uniform albedo W_gc = r_c W_g for all groups: the channels share
     // one matrix up to the factor sqrt(r_c), and one decomposition.
     const Eigen::VectorXd w_mean = w.rowwise().mean();
@@ -366,10 +378,11 @@ BaselineResult SolveBaseline(const Scene& scene, const PlanePixels& pixels, cons
     };
     Report(progress, 0.7 + 0.25 * (it + 0.5) / iterations, BaselineMethodName(options.method));
     if (shared) {
-      radiance = FitMap(transport, build(w_mean), ratio.cwiseSqrt(), {0, 1, 2}, options, &result);
+      radiance = FitMap(transport, build(w_mean), ratio.cwiseSqrt(), prior_scale, {0, 1, 2}, options, &result);
     } else {  // a textured plane: one system per channel
       for (int c = 0; c < 3; ++c)
-        radiance.col(c) = FitMap(transport, build(w.col(c)), Eigen::Vector3d::Ones(), {c}, options, &result).col(c);
+        radiance.col(c) =
+            FitMap(transport, build(w.col(c)), Eigen::Vector3d::Ones(), prior_scale, {c}, options, &result).col(c);
     }
     if (options.estimate_albedo && it + 1 < iterations) {
       const std::vector<Eigen::Vector3d> e = group_irradiance(radiance);

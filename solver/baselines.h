@@ -59,6 +59,8 @@ struct BaselineOptions {
   BaselineMethod method = BaselineMethod::kSS03;
   int map_rows = 16;               // texel rows over the hemisphere; the map is map_rows x 4 map_rows
   bool estimate_albedo = false;    // joint plane-albedo gain field (see above)
+  // SH21 weights in the reference code's units (its map absorbs albedo/pi,
+  // so on our radiance map they act as w * (albedo/pi)^2 per channel).
   double laplacian_weight = 0.1;   // SH21 wL (reference code's reg_lstsq_1)
   double identity_weight = 0.1;    // SH21 wI (reference code's reg_lstsq_2)
   int max_fit_pixels = 40000;      // distinct transport rows fitted at most

@@ -269,8 +269,11 @@ TEST(Baselines, SH21SolvesItsNormalEquations) {
     const Eigen::MatrixXd a = t.Matrix(AllRows(f.pixels.size()), c);
     const Eigen::VectorXd b = Observed(f, c);
     const Eigen::VectorXd l = MapChannel(r, c);
-    const Eigen::MatrixXd m = a.transpose() * a + 0.1 * d.transpose() * d +
-                              0.1 * Eigen::MatrixXd::Identity(t.cols(), t.cols());
+    // Weights in the reference's units: on our radiance map they act as
+    // 0.1 (albedo/pi)^2.
+    const double k2 = std::pow(t.AlbedoOverPi(0)[c], 2);
+    const Eigen::MatrixXd m = a.transpose() * a + 0.1 * k2 * d.transpose() * d +
+                              0.1 * k2 * Eigen::MatrixXd::Identity(t.cols(), t.cols());
     const Eigen::VectorXd atb = a.transpose() * b;
     // The map is stored as float: compare at that precision.
     EXPECT_LT((m * l - atb).norm(), 1e-5 * atb.norm()) << "channel " << c;
