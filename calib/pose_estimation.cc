@@ -1,7 +1,6 @@
 #include "calib/pose_estimation.h"
 
 #include <Eigen/Geometry>
-#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -10,6 +9,7 @@
 
 #include "calib/error.h"
 #include "calib/internal/opencv_bridge.h"
+#include "calib/plane_fit.h"
 
 namespace shadowsg {
 
@@ -195,19 +195,13 @@ Eigen::Matrix4d TagOnGround(const Eigen::Vector3d& centre, double yaw_rad) {
 
 std::optional<std::pair<Eigen::Vector3d, Eigen::Vector3d>> FitPlane(const std::vector<Eigen::Vector3d>& points,
                                                                     double tolerance) {
-  if (points.size() < 3) return std::nullopt;
-  Eigen::Vector3d c = Eigen::Vector3d::Zero();
-  for (const auto& p : points) c += p;
-  c /= static_cast<double>(points.size());
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (const auto& p : points) cov += (p - c) * (p - c).transpose();
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(cov, Eigen::ComputeFullU);
-  if (svd.singularValues()(1) <= 1e-12 * svd.singularValues()(0)) return std::nullopt;  // collinear
-  Eigen::Vector3d n = svd.matrixU().col(2).normalized();
+  auto plane = LeastSquaresPlane(points);
+  if (!plane) return std::nullopt;
+  auto& [c, n] = *plane;
   for (const auto& p : points)
     if (std::abs(n.dot(p - c)) > tolerance) return std::nullopt;
   if (n.dot(-c) < 0) n = -n;  // towards the camera at the origin
-  return std::make_pair(c, n);
+  return plane;
 }
 
 TagPoseResult EstimatePoseFromTags(const std::vector<TagDetection>& detections,

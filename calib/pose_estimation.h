@@ -92,8 +92,9 @@ struct TagPoseResult {
 TagPoseResult EstimatePoseFromTags(const std::vector<TagDetection>& detections,
                                    const std::vector<TagPlacement>& placements, const Camera& camera);
 
-// A plane through `points` (camera coordinates) with its normal towards the
-// camera, when they are coplanar within `tolerance`.
+// The least-squares plane (LeastSquaresPlane, plane_fit.h) through `points`
+// (camera coordinates) with its normal towards the camera, when they are
+// coplanar within `tolerance`.
 std::optional<std::pair<Eigen::Vector3d, Eigen::Vector3d>> FitPlane(const std::vector<Eigen::Vector3d>& points,
                                                                     double tolerance);
 

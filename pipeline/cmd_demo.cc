@@ -10,6 +10,7 @@
 #include "calib/error.h"
 #include "pipeline/cli_common.h"
 #include "pipeline/commands.h"
+#include "pipeline/sample_data.h"
 #include "stages/stage_util.h"
 #include "stages/synth_stage.h"
 
@@ -21,28 +22,6 @@ namespace {
 // --quick: half the resolution and a quarter of the samples (~8x faster).
 constexpr double kQuickScale = 0.5;
 constexpr int kQuickSppDivisor = 4;
-
-// data/sample: $SHADOWSG_DATA_DIR/sample, then beside the binary (build/ or
-// build/pipeline/ under the source tree, or an install's share/), then the
-// source tree the binary was built from.
-fs::path FindSampleSpec() {
-  std::vector<fs::path> candidates;
-  if (const char* env = std::getenv("SHADOWSG_DATA_DIR")) candidates.push_back(fs::path(env) / "sample");
-  std::error_code ec;
-  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-  if (!ec)
-    for (fs::path dir = exe.parent_path(); !dir.empty() && dir != dir.root_path(); dir = dir.parent_path()) {
-      candidates.push_back(dir / "data" / "sample");
-      candidates.push_back(dir / "share" / "shadowsg" / "sample");
-    }
-#ifdef SHADOWSG_SOURCE_DIR
-  candidates.push_back(fs::path(SHADOWSG_SOURCE_DIR) / "data" / "sample");
-#endif
-  for (const auto& c : candidates)
-    if (fs::is_regular_file(c / "sample.json", ec)) return c / "sample.json";
-  throw InputError("data/sample/sample.json",
-                   "sample scene not found (set SHADOWSG_DATA_DIR to the repository's data/ folder)");
-}
 
 }  // namespace
 

@@ -57,6 +57,9 @@ void RegisterPlaneCommand(CLI::App& app) {
   cmd->add_option("--camera-model", s.camera_model, "COLMAP camera model without --camera")->capture_default_str();
   cmd->add_option("--max-image-size", s.max_image_size, "Photos are downscaled to this side for SIFT")
       ->capture_default_str();
+  cmd->add_option("--max-features", s.max_features,
+                  "SIFT features per photo at most (CPU matching time grows with its square)")
+      ->capture_default_str();
   cmd->add_option("--min-registered", s.min_registered, "Fewest registered photos accepted")->capture_default_str();
   cmd->add_option("--plane-threshold", s.inlier_threshold,
                   "Plane inlier distance in COLMAP units (0: --plane-threshold-fraction x median viewing distance)")

@@ -18,5 +18,6 @@ void RegisterLinearizeCommand(CLI::App& app);
 void RegisterPoseCommand(CLI::App& app);
 void RegisterPlaneCommand(CLI::App& app);
 void RegisterRegisterCommand(CLI::App& app);
+void RegisterBenchCommand(CLI::App& app);
 
 }  // namespace shadowsg

@@ -25,6 +25,7 @@ int main(int argc, char** argv) {
   RegisterPoseCommand(app);
   RegisterPlaneCommand(app);
   RegisterRegisterCommand(app);
+  RegisterBenchCommand(app);
 
   InstallInterruptHandlers();
   try {

@@ -7,11 +7,16 @@
 // lighting's env map renders the same image.
 //
 // Estimator: next-event estimation at every diffuse vertex, one sample per
-// light kind (env map by a luminance x sin(theta) CDF over its texels; SG by
-// choosing a lobe by power then a von Mises-Fisher direction; area lights by
+// light kind (env map by a luminance x solid-angle CDF over its texels; SG by
+// choosing a lobe by power, then a von Mises-Fisher direction; area lights by
 // uniform area sampling; suns by uniform cone sampling, or exactly when
 // delta), combined with one cosine-sampled BSDF ray by the power heuristic
-// for env, SG and area lights (suns are NEE only). Random numbers come from a
+// for env, SG and area lights (suns are NEE only). Two refinements follow the
+// cosine as well as the light: the SG lobe and its vMF are those of the lobe
+// times the vertex's cosine lobe (the product lobe of method-notes.md), and on
+// the plane's front the env CDF also carries the plane's cosine; there the env
+// and SG samples follow L cos closely and are used alone (no MIS), which makes
+// unoccluded plane pixels almost noise-free. Random numbers come from a
 // counter-based hash of (seed, pixel, sample): the image is bit-identical for
 // any thread count.
 //

@@ -65,6 +65,7 @@ std::string ColmapRunOptions::Validate() const {
   if (!camera && ColmapModelParamCount(camera_model) < 0)
     return "--camera-model: unknown COLMAP camera model \"" + camera_model + "\"";
   if (max_image_size < 16) return "--max-image-size must be at least 16";
+  if (max_features < 16) return "--max-features must be at least 16";
   if (threads < 1) return "threads must be at least 1";
   return "";
 }
@@ -92,7 +93,8 @@ std::vector<std::vector<std::string>> ColmapCommands(const ColmapRunOptions& o) 
     extract.insert(extract.end(), {"--ImageReader.camera_model", o.camera_model});
   }
   extract.insert(extract.end(), {"--SiftExtraction.use_gpu", "0", "--SiftExtraction.num_threads", threads,
-                                 "--SiftExtraction.max_image_size", std::to_string(o.max_image_size)});
+                                 "--SiftExtraction.max_image_size", std::to_string(o.max_image_size),
+                                 "--SiftExtraction.max_num_features", std::to_string(o.max_features)});
 
   std::vector<std::string> match = {o.executable, o.matcher + "_matcher", "--random_seed", seed, "--database_path", db,
                                     "--SiftMatching.use_gpu", "0", "--SiftMatching.num_threads", threads};

@@ -27,6 +27,9 @@ struct ColmapRunOptions {
   std::string camera_model = "SIMPLE_RADIAL";  // without known intrinsics (COLMAP's default)
   std::string matcher = "exhaustive";          // "exhaustive" or "sequential" (video-like order)
   int max_image_size = 3200;                   // SiftExtraction.max_image_size (COLMAP's default)
+  // SiftExtraction.max_num_features (COLMAP's default). CPU matching is brute
+  // force, so its time grows with the square of this.
+  int max_features = 8192;
   int threads = 1;
   uint64_t seed = 0;                           // COLMAP's --random_seed
 

@@ -231,6 +231,7 @@ std::string PlaneStageOptions::Validate() const {
     run.matcher = matcher;
     run.camera_model = camera_model;
     run.max_image_size = max_image_size;
+    run.max_features = max_features;
     const std::string bad = run.Validate();
     if (!bad.empty()) return bad;
   }
@@ -442,6 +443,7 @@ PlaneStageResult RunPlaneStage(const PlaneStageOptions& o, const StageContext& c
     run.matcher = o.matcher;
     run.camera_model = o.camera_model;
     run.max_image_size = o.max_image_size;
+    run.max_features = o.max_features;
     run.threads = std::max(1, ctx.threads);
     run.seed = ctx.seed;
     if (!o.camera.empty()) {

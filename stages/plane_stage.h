@@ -44,6 +44,7 @@ struct PlaneStageOptions {
   std::string matcher = "exhaustive";
   std::string camera_model = "SIMPLE_RADIAL";
   int max_image_size = 3200;
+  int max_features = 8192;
   int min_registered = 3;  // fewer registered images is an error
 
   // Plane fit

@@ -187,15 +187,25 @@ void RenderCheckerboardSet(const Camera& lens, int cols, int rows, double square
   std::uniform_real_distribution<double> uni(0, 1);
   fs::create_directories(dir);
   int written = 0;
-  for (int attempt = 0; written < views && attempt < 1000; ++attempt) {
-    const double tilt = (10 + 30 * uni(rng)) * M_PI / 180, az = 2 * M_PI * uni(rng);
-    const double dist = 0.5 + 0.25 * uni(rng);
-    const Eigen::Vector3d at(0.06 * (uni(rng) - 0.5), 0.06 * (uni(rng) - 0.5), 0);
-    const Eigen::Vector3d from =
-        at + dist * Eigen::Vector3d(std::sin(tilt) * std::cos(az), std::sin(tilt) * std::sin(az), std::cos(tilt));
-    const double roll = (uni(rng) - 0.5) * 1.2;
-    const Eigen::Vector3d up(std::cos(az + M_PI + roll), std::sin(az + M_PI + roll), 0);
-    scene.camera.c2w = LookAt(from, at, up);
+  // Boards spread over the frame (their centre anywhere in the middle 60 %),
+  // tilted 15-45 degrees about a random axis and turned about their normal:
+  // the variety that pins down the focal length and the distortion.
+  for (int attempt = 0; written < views && attempt < 5000; ++attempt) {
+    const double u = lens.width * (0.2 + 0.6 * uni(rng)), v = lens.height * (0.2 + 0.6 * uni(rng));
+    const double dist = 0.45 + 0.3 * uni(rng);
+    const double tilt = (15 + 30 * uni(rng)) * M_PI / 180, axis_angle = 2 * M_PI * uni(rng);
+    const double roll = (uni(rng) - 0.5) * 1.0;
+    const Eigen::Vector3d centre =
+        dist * Eigen::Vector3d((u - lens.cx) / lens.fx, (v - lens.cy) / lens.fy, 1).normalized();
+    // Board to camera: facing the camera (board z -> camera -z), then tilted and turned.
+    const Eigen::Matrix3d facing = Eigen::Vector3d(1, -1, -1).asDiagonal();
+    const Eigen::Matrix3d R =
+        Eigen::AngleAxisd(tilt, Eigen::Vector3d(std::cos(axis_angle), std::sin(axis_angle), 0)).toRotationMatrix() *
+        facing * Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    Eigen::Matrix4d c2w = Eigen::Matrix4d::Identity();
+    c2w.topLeftCorner<3, 3>() = R.transpose();
+    c2w.topRightCorner<3, 1>() = -R.transpose() * centre;
+    scene.camera.c2w = c2w;
     bool inside = true;
     for (double sx : {-1.0, 1.0})
       for (double sy : {-1.0, 1.0}) {

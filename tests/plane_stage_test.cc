@@ -136,9 +136,10 @@ TEST(PlaneStage, RegisteredFrameAndMetricScaleFromTwoPoints) {
   // Hero's x axis lies in the world's x-z plane (x = the hero's right edge on the ground).
   EXPECT_NEAR(r.hero.c2w(1, 0), 0, 1e-9);
   EXPECT_GT(r.hero.c2w(0, 0), 0);
-  // The rectangle spans the ground points (+-1 x +-0.8, 2 % in from each side).
-  EXPECT_NEAR(r.half_extent.x(), 0.96, 0.03);
-  EXPECT_NEAR(r.half_extent.y(), 0.77, 0.03);
+  // The rectangle spans the ground points (+-1 x +-0.8, 2 % in from each
+  // side, in axes turned ~11 degrees with the hero's heading).
+  EXPECT_NEAR(r.half_extent.x(), 0.98, 0.06);
+  EXPECT_NEAR(r.half_extent.y(), 0.82, 0.06);
   // colmap_to_world maps the model's points onto z = 0.
   const Eigen::Vector3d a = (r.colmap_to_world * mc.model.points[0].xyz.homogeneous()).head<3>();
   EXPECT_NEAR(a.z(), 0, 1e-3);
@@ -153,8 +154,10 @@ TEST(PlaneStage, ScaleFromTwoHeroPixelsOnThePlane) {
   o.distance_pixels = {*ProjectToPixel(hero, Eigen::Vector3d(0, 0, 0)),
                        *ProjectToPixel(hero, Eigen::Vector3d(0.3, 0.4, 0))};
   const PlaneStageResult r = RegisterPlane(mc.model, o, Quiet());
-  EXPECT_NEAR(r.scale * mc.model_units_per_metre, 1.0, 1e-6);
-  EXPECT_NEAR(r.hero.c2w(2, 3), 1.0, 1e-5);  // the hero's true height
+  // Box points within the inlier threshold of the ground pull the plane up
+  // by ~1e-4 of the viewing distance.
+  EXPECT_NEAR(r.scale * mc.model_units_per_metre, 1.0, 1e-3);
+  EXPECT_NEAR(r.hero.c2w(2, 3), 1.0, 1e-3);  // the hero's true height
 }
 
 TEST(PlaneStage, WithoutScaleLengthsStayInColmapUnits) {
@@ -162,7 +165,7 @@ TEST(PlaneStage, WithoutScaleLengthsStayInColmapUnits) {
   const PlaneStageResult r = RegisterPlane(mc.model, Options(), Quiet());
   EXPECT_EQ(r.scale_source, "none");
   EXPECT_EQ(r.scale, 1.0);
-  EXPECT_NEAR(r.hero.c2w(2, 3), 1.0 * mc.model_units_per_metre, 1e-5);
+  EXPECT_NEAR(r.hero.c2w(2, 3), 1.0 * mc.model_units_per_metre, 1e-3 * mc.model_units_per_metre);
 }
 
 TEST(PlaneStage, HeroIntrinsicsFromCameraJson) {
