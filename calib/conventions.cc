@@ -47,11 +47,11 @@ Eigen::Matrix3d MinimalRotationToZ(const Eigen::Vector3d& normal) {
       .toRotationMatrix();
 }
 
-// Our world is z-up; USD/OpenEXR lat-long is y-up. We choose the right-handed
-// mapping world (x, y, z) -> usd (y, z, x): world +z becomes usd +y (up) and
-// world +x becomes usd +z (longitude 0).
-Eigen::Vector3d WorldToUsdDirection(const Eigen::Vector3d& d) { return {d.y(), d.z(), d.x()}; }
-Eigen::Vector3d UsdToWorldDirection(const Eigen::Vector3d& d) { return {d.z(), d.x(), d.y()}; }
+// Our world is z-up; USD/OpenEXR lat-long is y-up: rotate by -90 degrees
+// about x, so world +z becomes usd +y (up) and world -y becomes usd +z
+// (longitude 0); world +x stays +x (longitude pi/2).
+Eigen::Vector3d WorldToUsdDirection(const Eigen::Vector3d& d) { return {d.x(), d.z(), -d.y()}; }
+Eigen::Vector3d UsdToWorldDirection(const Eigen::Vector3d& d) { return {d.x(), -d.z(), d.y()}; }
 
 Eigen::Vector3d UsdTexelDirection(double u, double v, int width, int height) {
   // Latitude +pi/2 at the top row, longitude +pi at the left column, decreasing
@@ -68,6 +68,54 @@ Eigen::Vector3d BlenderTexelDirection(double u, double v, int width, int height)
   const double phi = -(fu - 0.5) * 2 * M_PI;
   const double lat = (fv - 0.5) * M_PI;
   return {std::cos(phi) * std::cos(lat), std::sin(phi) * std::cos(lat), std::sin(lat)};
+}
+
+namespace {
+
+// A texel column wrapped into [-0.5, W - 0.5).
+double WrapColumn(double u, int width) {
+  const double w = static_cast<double>(width);
+  double r = std::fmod(u + 0.5, w);
+  if (r < 0) r += w;
+  return r - 0.5;
+}
+
+}  // namespace
+
+Eigen::Vector3d LatLongTexelDirection(LatLongConvention convention, double u, double v, int width, int height) {
+  switch (convention) {
+    case LatLongConvention::kShadowSg:
+      return EnvTexelDirection(u, v, width, height);
+    case LatLongConvention::kOpenExr:
+      return UsdToWorldDirection(UsdTexelDirection(u, v, width, height));
+    case LatLongConvention::kBlender:
+      return BlenderTexelDirection(u, v, width, height);
+  }
+  return Eigen::Vector3d::Zero();
+}
+
+Eigen::Vector2d LatLongDirectionToTexel(LatLongConvention convention, const Eigen::Vector3d& world_dir, int width,
+                                        int height) {
+  const Eigen::Vector3d d = world_dir.normalized();
+  switch (convention) {
+    case LatLongConvention::kShadowSg:
+      return EnvDirectionToTexel(d, width, height);
+    case LatLongConvention::kOpenExr: {
+      // Inverse of UsdTexelDirection: lon = pi - 2 pi (u + 0.5) / W,
+      // lat = pi / 2 - pi (v + 0.5) / H, lon = atan2(x, z) in the usd frame.
+      const Eigen::Vector3d q = WorldToUsdDirection(d);
+      const double lon = std::atan2(q.x(), q.z());
+      const double lat = std::atan2(q.y(), std::hypot(q.x(), q.z()));
+      return {WrapColumn((M_PI - lon) * width / (2 * M_PI) - 0.5, width), (M_PI / 2 - lat) * height / M_PI - 0.5};
+    }
+    case LatLongConvention::kBlender: {
+      // Inverse of BlenderTexelDirection: phi = pi - 2 pi (u + 0.5) / W.
+      const double phi = std::atan2(d.y(), d.x());
+      const double theta = std::atan2(std::hypot(d.x(), d.y()), d.z());
+      return {WrapColumn((M_PI - phi) * width / (2 * M_PI) - 0.5, width), theta * height / M_PI - 0.5};
+    }
+  }
+  return Eigen::Vector2d::Zero();
 }
 
 }  // namespace shadowsg

@@ -56,9 +56,18 @@ double EnvTexelSolidAngle(int v, int width, int height);
 Eigen::Matrix3d MinimalRotationToZ(const Eigen::Vector3d& normal);
 
 // ---- Other tools' lat-long conventions ---------------------------------------
-// OpenEXR/USD lat-long: +Y up, longitude 0 -> +Z, longitude pi/2 -> +X, first
-// pixel at latitude +pi/2, longitude +pi. Blender's world equirect is z-up with
-// u = -atan2(dir.y, dir.x) / (2 pi) + 0.5 (the image centre looks along +x).
+// OpenEXR/USD lat-long (ImfEnvmap.h; UsdLuxDomeLight): +Y up, longitude 0 ->
+// +Z, longitude pi/2 -> +X, the first pixel at latitude +pi/2 and longitude
+// +pi. Our world is z-up; it maps to that y-up frame by the rotation of -90
+// degrees about x, (x, y, z) -> (x, z, -y), the usual z-up to y-up conversion
+// (Blender's USD and glTF exporters use it), so a scene exported with the same
+// conversion keeps its lighting. Texel centres sit at (u + 0.5) / W as in every
+// texture lookup; ImfEnvmap's LatLongMap::direction puts pixel centres at the
+// ends of [+pi, -pi] instead (half a texel apart, 180 / W degrees).
+// Blender's world equirect (Cycles direction_to_equirectangular): z-up like
+// ours, u = 0.5 - atan2(y, x) / (2 pi) (the image centre looks along +x,
+// longitude increasing to the LEFT), v = 1 - acos(z) / pi counted from the
+// bottom row. Same frame as ours, mirrored in azimuth.
 // These map a direction in OUR world frame to that tool's frame and back.
 Eigen::Vector3d WorldToUsdDirection(const Eigen::Vector3d& d);
 Eigen::Vector3d UsdToWorldDirection(const Eigen::Vector3d& d);
@@ -66,5 +75,19 @@ Eigen::Vector3d UsdToWorldDirection(const Eigen::Vector3d& d);
 Eigen::Vector3d UsdTexelDirection(double u, double v, int width, int height);
 // Blender equirect texel -> direction in Blender world (= our world, both z-up).
 Eigen::Vector3d BlenderTexelDirection(double u, double v, int width, int height);
+
+// The three lat-long layouts a map of ours may be written in.
+enum class LatLongConvention {
+  kShadowSg,  // scene-format.md (EnvTexelDirection)
+  kOpenExr,   // OpenEXR / USD DomeLight, in the y-up frame above
+  kBlender,   // Blender's Environment Texture node (world z-up)
+};
+// Direction in OUR world frame of texel (u, v) (row v from the top of the
+// file) of a W x H map laid out in `convention`.
+Eigen::Vector3d LatLongTexelDirection(LatLongConvention convention, double u, double v, int width, int height);
+// Inverse: continuous texel coordinates (texel centres at integers, u in
+// [-0.5, W - 0.5)) of a direction given in OUR world frame.
+Eigen::Vector2d LatLongDirectionToTexel(LatLongConvention convention, const Eigen::Vector3d& world_dir, int width,
+                                        int height);
 
 }  // namespace shadowsg

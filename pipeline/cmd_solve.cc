@@ -24,8 +24,6 @@ void RegisterSolveCommand(CLI::App& app) {
   cmd->add_flag("--estimate-albedo", opt->solve.estimate_albedo, "sh21: estimate the plane albedo jointly");
   cmd->add_option("--ssdf", opt->solve.ssdf, "Occluder search: exact (branch and bound) or c2f (reference's top-3)")
       ->capture_default_str();
-  cmd->add_option("--visibility", opt->solve.visibility, "sg: spheres (closed form) or exact (ray-cast mesh)")
-      ->capture_default_str();
   AddCommonOptions(cmd, &opt->common);
   cmd->callback([opt] { RunSolve(opt->scene_dir, opt->out_dir, opt->solve, MakeContext(opt->common)); });
 }

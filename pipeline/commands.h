@@ -9,6 +9,8 @@ namespace shadowsg {
 void RegisterInfoCommand(CLI::App& app);
 void RegisterSolveCommand(CLI::App& app);
 void RegisterEvalCommand(CLI::App& app);
+void RegisterCompositeCommand(CLI::App& app);
+void RegisterExportCommand(CLI::App& app);
 void RegisterRenderCommand(CLI::App& app);
 void RegisterSynthCommand(CLI::App& app);
 void RegisterDemoCommand(CLI::App& app);

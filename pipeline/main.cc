@@ -16,6 +16,8 @@ int main(int argc, char** argv) {
   RegisterInfoCommand(app);
   RegisterSolveCommand(app);
   RegisterEvalCommand(app);
+  RegisterCompositeCommand(app);
+  RegisterExportCommand(app);
   RegisterRenderCommand(app);
   RegisterSynthCommand(app);
   RegisterDemoCommand(app);

@@ -76,4 +76,48 @@ Eigen::Vector3d EnvIrradiance(const Image& env, const Eigen::Vector3d& normal) {
   return e;
 }
 
+namespace {
+
+// Texel centres closer than this (in texels) to a grid point coincide with it.
+constexpr double kTexelCentreTolerance = 1e-6;
+
+// `src` (layout `from`) re-laid out as `to`, same size.
+Image Relayout(const Image& src, LatLongConvention from, LatLongConvention to) {
+  SHADOWSG_CHECK(src.height > 0 && src.width == 2 * src.height && src.channels >= 3);
+  const int w = src.width, h = src.height;
+  Image out(w, h, 3);
+  auto texel = [&](int u, int v) -> Eigen::Vector3d {
+    u = ((u % w) + w) % w;
+    v = std::clamp(v, 0, h - 1);
+    return src.rgb(src.index(u, v)).cast<double>();
+  };
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u) {
+      const Eigen::Vector2d t = LatLongDirectionToTexel(from, LatLongTexelDirection(to, u, v, w, h), w, h);
+      const double ru = std::round(t.x()), rv = std::round(t.y());
+      Eigen::Vector3d value;
+      if (std::abs(t.x() - ru) < kTexelCentreTolerance && std::abs(t.y() - rv) < kTexelCentreTolerance) {
+        value = texel(static_cast<int>(ru), static_cast<int>(rv));
+      } else {
+        const double fv = std::clamp(t.y(), 0.0, h - 1.0);
+        const int u0 = static_cast<int>(std::floor(t.x())), v0 = static_cast<int>(std::floor(fv));
+        const double au = t.x() - u0, av = fv - v0;
+        value = (1 - av) * ((1 - au) * texel(u0, v0) + au * texel(u0 + 1, v0)) +
+                av * ((1 - au) * texel(u0, v0 + 1) + au * texel(u0 + 1, v0 + 1));
+      }
+      out.set_rgb(out.index(u, v), value.cast<float>());
+    }
+  return out;
+}
+
+}  // namespace
+
+Image EnvMapToLatLong(const Image& ours, LatLongConvention to) {
+  return Relayout(ours, LatLongConvention::kShadowSg, to);
+}
+
+Image EnvMapFromLatLong(const Image& theirs, LatLongConvention from) {
+  return Relayout(theirs, from, LatLongConvention::kShadowSg);
+}
+
 }  // namespace shadowsg

@@ -5,6 +5,7 @@
 #include <Eigen/Dense>
 #include <functional>
 
+#include "calib/conventions.h"
 #include "calib/image.h"
 
 namespace shadowsg {
@@ -19,5 +20,13 @@ Image ResampleEnvMap(const Image& env, int height);
 // Cosine-weighted irradiance integral over the hemisphere around `normal`
 // (no visibility): E = sum L(w) max(n.w, 0) dOmega.
 Eigen::Vector3d EnvIrradiance(const Image& env, const Eigen::Vector3d& normal);
+
+// Our map laid out in another tool's lat-long convention (calib/conventions.h,
+// LatLongConvention), same size, and back. Each texel takes the value our map
+// has in its direction: an exact texel permutation wherever the two layouts'
+// texel centres coincide (Blender: always; OpenEXR/USD: when the width is a
+// multiple of 4), else bilinear between the four nearest texels.
+Image EnvMapToLatLong(const Image& ours, LatLongConvention to);
+Image EnvMapFromLatLong(const Image& theirs, LatLongConvention from);
 
 }  // namespace shadowsg

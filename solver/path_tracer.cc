@@ -37,6 +37,7 @@ struct SurfaceHit {
   Eigen::Vector3d normal;  // unit, facing the incoming ray
   Eigen::Vector3d albedo;
   bool plane_front = false;  // on the plane, seen from its normal's side
+  bool virtual_object = false;  // on an object with is_train false
 };
 
 class RenderGeometry {
@@ -47,8 +48,12 @@ class RenderGeometry {
                         (options.objects == RenderObjects::kCasters && o.is_train);
       if (!take) continue;
       const int id = caster_.AddMesh(o.WorldMesh());
-      if (static_cast<int>(albedo_.size()) <= id) albedo_.resize(id + 1);
+      if (static_cast<int>(albedo_.size()) <= id) {
+        albedo_.resize(id + 1);
+        virtual_.resize(id + 1, 0);
+      }
       albedo_[id] = o.diffuse;
+      virtual_[id] = !o.is_train;
     }
     if (options.include_plane) {
       // The rectangle as two triangles: world = xyz + R^T local.
@@ -82,6 +87,7 @@ class RenderGeometry {
     } else {
       s.normal = hit->normal;
       s.albedo = albedo_[hit->geometry];
+      s.virtual_object = virtual_[hit->geometry];
     }
     return s;
   }
@@ -94,6 +100,7 @@ class RenderGeometry {
   const Plane& plane_;
   RayCaster caster_;
   std::vector<Eigen::Vector3d> albedo_;  // by geometry id
+  std::vector<char> virtual_;            // by geometry id: is_train false
   int plane_id_ = -1;
 };
 
@@ -281,9 +288,11 @@ class Integrator {
     return l;
   }
 
-  // Radiance along a camera ray.
-  Eigen::Vector3d Li(const Ray& camera_ray, RandomStream& rng) const {
+  // Radiance along a camera ray; *first_virtual (optional) tells whether the
+  // ray's first hit is a virtual object.
+  Eigen::Vector3d Li(const Ray& camera_ray, RandomStream& rng, bool* first_virtual = nullptr) const {
     auto hit = geometry_.Intersect(camera_ray.origin, camera_ray.dir);
+    if (first_virtual) *first_virtual = hit && hit->virtual_object;
     if (!hit) return Distant(camera_ray.dir);
     thread_local SgLight::Mixture sg_mixture;
     Eigen::Vector3d radiance = Eigen::Vector3d::Zero();
@@ -400,13 +409,18 @@ Eigen::Vector3d RenderedDistantRadiance(const LightSet& lights, const Eigen::Vec
 }
 
 Image RenderPathTraced(const Scene& scene, const LightSet& lights, const PathTraceOptions& options,
-                       const ProgressFn& progress) {
+                       const ProgressFn& progress, VirtualObjectSplit* split) {
   std::string error;
   SHADOWSG_CHECK(options.IsValid(&error));
   if (lights.env) SHADOWSG_CHECK(lights.env->width == 2 * lights.env->height && lights.env->channels >= 3);
   const Camera& cam = scene.camera;
   const int w = cam.width, h = cam.height;
   Image image(w, h, 3);
+  if (split) {
+    split->coverage = Image(w, h, 1);
+    split->object_radiance = Image(w, h, 3);
+    split->rest_radiance = Image(w, h, 3);
+  }
   const Integrator integrator(scene, lights, options);
 
   std::atomic<int> rows_done{0};
@@ -420,14 +434,30 @@ Image RenderPathTraced(const Scene& scene, const LightSet& lights, const PathTra
     for (int x = 0; x < w; ++x) {
       const uint64_t pixel = static_cast<uint64_t>(y) * w + x;
       Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      // The split: sums and counts of the samples whose first hit is a
+      // virtual object and of the others (non-finite samples count as 0, as
+      // in the image).
+      Eigen::Vector3d sum_object = Eigen::Vector3d::Zero(), sum_rest = Eigen::Vector3d::Zero();
+      int n_object = 0;
       for (int s = 0; s < options.samples_per_pixel; ++s) {
         RandomStream rng(options.seed, pixel, static_cast<uint64_t>(s));
         const Eigen::Vector2d jitter = rng.Uniform2() - Eigen::Vector2d::Constant(0.5);
         const Ray ray = PixelRay(cam, x + jitter.x(), y + jitter.y());
-        const Eigen::Vector3d l = integrator.Li(ray, rng);
+        bool first_virtual = false;
+        const Eigen::Vector3d l = integrator.Li(ray, rng, split ? &first_virtual : nullptr);
         if (l.allFinite()) sum += l;
+        if (split) {
+          n_object += first_virtual;
+          if (l.allFinite()) (first_virtual ? sum_object : sum_rest) += l;
+        }
       }
       image.set_rgb(pixel, (sum / options.samples_per_pixel).cast<float>());
+      if (split) {
+        const int n_rest = options.samples_per_pixel - n_object;
+        split->coverage.data[pixel] = static_cast<float>(static_cast<double>(n_object) / options.samples_per_pixel);
+        if (n_object > 0) split->object_radiance.set_rgb(pixel, (sum_object / n_object).cast<float>());
+        if (n_rest > 0) split->rest_radiance.set_rgb(pixel, (sum_rest / n_rest).cast<float>());
+      }
     }
     const int done = ++rows_done;
     // Whichever worker finishes a row reports, one at a time; a report that

@@ -60,10 +60,22 @@ struct PathTraceOptions {
   bool IsValid(std::string* error) const;
 };
 
+// The samples of each pixel split by what their camera ray hits first: a
+// virtual object (is_train false) or anything else (plane, casters, the
+// distant lighting). The compositor's anti-aliased object matte and the two
+// radiances it blends (solver/compositor.h).
+struct VirtualObjectSplit {
+  Image coverage;         // 1 channel: share of the pixel's samples that hit a virtual object first
+  Image object_radiance;  // RGB: mean radiance of those samples (0 where coverage is 0)
+  Image rest_radiance;    // RGB: mean radiance of the other samples (0 where coverage is 1)
+};
+
 // Linear RGB image of scene.camera's view (3 channels). The callback may throw
 // (e.g. Interrupted); the exception propagates once the workers have stopped.
+// `split`, when given, receives the per-pixel split above; the image does not
+// depend on whether it is asked for.
 Image RenderPathTraced(const Scene& scene, const LightSet& lights, const PathTraceOptions& options,
-                       const ProgressFn& progress = {});
+                       const ProgressFn& progress = {}, VirtualObjectSplit* split = nullptr);
 
 // The radiance the renderer assigns to a distant direction (SG exactly, env map
 // by nearest texel): what a camera ray that escapes returns.

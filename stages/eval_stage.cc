@@ -7,6 +7,7 @@
 #include "solver/light_transport.h"
 #include "solver/plane_pixels.h"
 #include "solver/shadow_plane.h"
+#include "stages/composite_stage.h"
 #include "stages/evaluation.h"
 #include "stages/io/lighting_io.h"
 #include "stages/io/scene_io.h"
@@ -66,6 +67,7 @@ void RunEval(const fs::path& scene_dir, const fs::path& lighting_file, const fs:
   est.solve_seconds = 0;
   est.extra = Json{{"lighting", lighting_file.string()}, {"render_seconds", render_clock.Seconds()},
                    {"sg_model", o.sg_model}, {"map_rows", o.map_height}};
+  if (scene.image_virtual_objs) EnsureCompositeTrees(scene, scene_dir, ctx);  // for the insertion scores
   const Json m = ScoreAndWrite(scene, pixels, est, out_dir, clock, ctx);
   char line[200];
   std::snprintf(line, sizeof(line), "eval: psnr %.2f dB, ssim %.4f (%s)", m["psnr"].get<double>(),

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "solver/metrics.h"
+#include "stages/composite_stage.h"
 #include "stages/io/image_io.h"
 #include "stages/io/lighting_io.h"
 
@@ -56,6 +57,18 @@ Json ScoreAndWrite(const Scene& scene, const PlanePixels& pixels, const Lighting
   }
   m["insert_psnr"] = nullptr;
   m["insert_ssim"] = nullptr;
+  {
+    // Insertion scores: the preview composite of the scene's virtual objects
+    // (stages/composite_stage.h), when the scene has their ground truth.
+    LightSet lights;
+    if (est.sg) lights.sg = est.sg;
+    else if (!est.envmap.empty()) lights.env = est.envmap;
+    if (!lights.empty())
+      if (const auto insert = PreviewInsertionScores(scene, lights, ctx)) {
+        m["insert_psnr"] = insert->psnr;
+        m["insert_ssim"] = insert->ssim;
+      }
+  }
   m["n_lobes"] = est.n_lobes;
   m["n_params"] = est.n_params;
   m["solve_seconds"] = est.solve_seconds;

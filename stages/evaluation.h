@@ -37,6 +37,10 @@ Image PlaneRenderImage(const PlanePixels& pixels, const std::vector<Eigen::Vecto
 // Scores the estimate and writes lighting.json (SG), envmap.exr/.png,
 // render.exr/.png, error.png and metrics.json (last, with total_seconds
 // measured from `command_clock`). Returns metrics.json's content.
+// insert_psnr / insert_ssim come from the preview composite
+// (PreviewInsertionScores) when the scene has virtual objects and
+// image_virtual_objs.exr and every object has a sphere tree
+// (EnsureCompositeTrees).
 Json ScoreAndWrite(const Scene& scene, const PlanePixels& pixels, const LightingEstimate& estimate,
                    const std::filesystem::path& out_dir, const Stopwatch& command_clock, const StageContext& ctx);
 

@@ -9,6 +9,7 @@
 #include "calib/apriltag_detect.h"
 #include "calib/error.h"
 #include "calib/image_warp.h"
+#include "calib/tag_refine.h"
 #include "stages/io/capture_io.h"
 #include "stages/io/image_io.h"
 #include "stages/io/json_util.h"
@@ -120,8 +121,13 @@ std::vector<TagScaleReport> MeasureTags(const ColmapModel& model, const PlaneSta
       if (!fs::is_regular_file(path, ec)) {
         problems[i] = path.string() + ": not found (tags not searched)";
       } else {
-        Image display = ReadImage(path);
-        if (Lower(path.extension().string()) == ".exr") display = ToneMap(display);
+        // Detection on the display-referred photo, corners refined in linear
+        // intensity (tag_refine.h: the detector's edges sit ~1 % inside).
+        Image display = ReadImage(path), linear = display;
+        if (Lower(path.extension().string()) == ".exr")
+          display = ToneMap(display);
+        else
+          for (float& v : linear.data) v = SrgbDecode(v);
         Camera cam = ColmapImageCamera(model, im);
         if (cam.width != display.width || cam.height != display.height) {
           problems[i] = path.string() + ": size differs from COLMAP's camera (tags not searched)";
@@ -129,9 +135,12 @@ std::vector<TagScaleReport> MeasureTags(const ColmapModel& model, const PlaneSta
           for (const TagDetection& d : DetectTags(display, detector)) {
             if (o.tag_id >= 0 && d.id != o.tag_id) continue;
             if (per_image[i].count(d.id)) continue;  // the strongest detection comes first
+            std::array<Eigen::Vector2d, 4> corners = d.corners;
+            if (const auto refined = RefineTagCorners(linear, d, MakeTagPattern(o.tag_family, d.id)))
+              corners = *refined;
             std::array<RayT, 4> rays;
             for (int k = 0; k < 4; ++k) {
-              const Ray r = PixelRay(cam, d.corners[k].x(), d.corners[k].y());
+              const Ray r = PixelRay(cam, corners[k].x(), corners[k].y());
               rays[k] = {r.origin, r.dir};
             }
             per_image[i][d.id] = rays;

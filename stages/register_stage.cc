@@ -8,6 +8,7 @@
 #include "calib/apriltag_detect.h"
 #include "calib/error.h"
 #include "calib/image_warp.h"
+#include "calib/tag_refine.h"
 #include "solver/ray_caster.h"
 #include "stages/io/capture_io.h"
 #include "stages/io/image_io.h"
@@ -44,23 +45,6 @@ std::string Fmt(const char* fmt, double v) {
   char buf[64];
   std::snprintf(buf, sizeof buf, fmt, v);
   return buf;
-}
-
-// The homography mapping src[k] to dst[k] (4 points, no three collinear).
-Eigen::Matrix3d Homography4(const std::array<Eigen::Vector2d, 4>& src, const std::array<Eigen::Vector2d, 4>& dst) {
-  Eigen::Matrix<double, 8, 8> A;
-  Eigen::Matrix<double, 8, 1> b;
-  for (int k = 0; k < 4; ++k) {
-    const double x = src[k].x(), y = src[k].y(), u = dst[k].x(), v = dst[k].y();
-    A.row(2 * k) << x, y, 1, 0, 0, 0, -u * x, -u * y;
-    A.row(2 * k + 1) << 0, 0, 0, x, y, 1, -v * x, -v * y;
-    b(2 * k) = u;
-    b(2 * k + 1) = v;
-  }
-  const Eigen::Matrix<double, 8, 1> h = A.fullPivLu().solve(b);
-  Eigen::Matrix3d H;
-  H << h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7), 1.0;
-  return H;
 }
 
 Eigen::Vector2d Apply(const Eigen::Matrix3d& H, const Eigen::Vector2d& p) {
@@ -108,15 +92,10 @@ TagInImage LocateTag(const TagDetection& d, const std::string& family) {
   TagInImage t;
   t.det = d;
   t.pattern = MakeTagPattern(family, d.id);
-  const double off = 0.5 * (t.pattern.total_width - t.pattern.border_width);
-  const double B = t.pattern.border_width;
-  // TagDetection's corner order: bottom-left, bottom-right, top-right, top-left.
-  const std::array<Eigen::Vector2d, 4> src = {Eigen::Vector2d(off, off + B), Eigen::Vector2d(off + B, off + B),
-                                              Eigen::Vector2d(off + B, off), Eigen::Vector2d(off, off)};
-  t.H = Homography4(src, d.corners);
+  t.H = TagPatternToImage(d, t.pattern);
   double edge = 0;
   for (int k = 0; k < 4; ++k) edge += (d.corners[k] - d.corners[(k + 1) % 4]).norm() / 4;
-  t.cell_px = edge / B;
+  t.cell_px = edge / t.pattern.border_width;
   return t;
 }
 

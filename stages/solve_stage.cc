@@ -8,6 +8,7 @@
 #include "solver/sg_paper_solver.h"
 #include "solver/sg_solver.h"
 #include "solver/shadow_plane.h"
+#include "stages/composite_stage.h"
 #include "stages/evaluation.h"
 #include "stages/io/scene_io.h"
 #include "stages/sphere_tree_stage.h"
@@ -25,7 +26,6 @@ std::string SolveOptions::Validate() const {
     return "--budget: expected fast, balanced, best or paper";
   if (map_height < 2 || map_height > 256) return "--map-height: expected 2 to 256 rows";
   if (ssdf != "exact" && ssdf != "c2f") return "--ssdf: expected exact or c2f";
-  if (visibility != "spheres" && visibility != "exact") return "--visibility: expected spheres or exact";
   return "";
 }
 
@@ -69,8 +69,6 @@ LightingEstimate SolveWithSgPaper(Scene& scene, const fs::path& scene_dir, const
 
 LightingEstimate SolveWithSg(Scene& scene, const fs::path& scene_dir, const PlanePixels& pixels,
                              const SolveOptions& o, const StageContext& ctx) {
-  if (o.visibility == "exact")
-    throw InputError("", "--visibility exact: not implemented yet; use --visibility spheres");
   for (auto& obj : scene.objects)
     if (obj.is_train) EnsureSphereTree(obj, scene_dir, ctx);
   ShadowPlaneModel model = MakeShadowPlaneModel(scene, pixels);
@@ -144,6 +142,7 @@ void RunSolve(const fs::path& scene_dir, const fs::path& out_dir, const SolveOpt
   if (o.method == "sg-paper") est = SolveWithSgPaper(scene, scene_dir, pixels, o, ctx);
   else if (o.method == "sg") est = SolveWithSg(scene, scene_dir, pixels, o, ctx);
   else est = SolveWithBaseline(scene, pixels, casters, o, ctx);
+  if (scene.image_virtual_objs) EnsureCompositeTrees(scene, scene_dir, ctx);  // for the insertion scores
   const Json m = ScoreAndWrite(scene, pixels, est, out_dir, clock, ctx);
   char line[256];
   std::snprintf(line, sizeof(line), "solve: %s psnr %.2f dB, ssim %.4f, %d lobes, %d params, solve %.2f s, total %.2f s",

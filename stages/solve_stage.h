@@ -17,7 +17,6 @@ struct SolveOptions {
   int map_height = 16;               // baselines: map rows over the hemisphere
   bool estimate_albedo = false;      // sh21: estimate the plane albedo scale jointly
   std::string ssdf = "exact";        // exact | c2f (the reference's coarse-to-fine search)
-  std::string visibility = "spheres";  // sg: spheres (closed form) | exact (ray-cast mesh visibility)
 
   // Message naming the bad option, or empty.
   std::string Validate() const;

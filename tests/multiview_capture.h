@@ -31,7 +31,7 @@ struct MultiviewSpec {
   double tag_size = 0.2;                 // black border edge, metres
   Eigen::Vector2d tag_centre = Eigen::Vector2d(0.4, -0.35);
   Eigen::Vector3d box_half = Eigen::Vector3d(0.1, 0.08, 0.15);  // resting on the plane at the origin
-  int texture_size = 1024;
+  int texture_size = 1280;  // 1.5625 mm texels: the tag's cells are whole texels (sharp, unbiased edges)
   int spp = 4;
   uint64_t seed = 7;
 };

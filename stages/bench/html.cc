@@ -207,7 +207,7 @@ std::vector<std::string> MissingLinks(const fs::path& html) {
   std::stringstream text;
   text << in.rdbuf();
   const std::string s = text.str();
-  static const std::regex kLink(R"((?:src|href)\s*=\s*"([^"]*)")", std::regex::icase);
+  static const std::regex kLink(R"re((?:src|href)\s*=\s*"([^"]*)")re", std::regex::icase);
   static const std::regex kScheme(R"(^[A-Za-z][A-Za-z0-9+.-]*:)");
   std::vector<std::string> missing;
   for (auto it = std::sregex_iterator(s.begin(), s.end(), kLink); it != std::sregex_iterator(); ++it) {

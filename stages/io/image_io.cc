@@ -69,7 +69,9 @@ Image ReadExr(const fs::path& path, bool keep_alpha) {
   }
 }
 
-void WriteExr(const fs::path& path, const Image& image, ExrPixelType type) {
+namespace {
+
+void WriteExrFile(const fs::path& path, const Image& image, ExrPixelType type, bool latlong_envmap) {
   SHADOWSG_CHECK(!image.empty());
   static const char* kRgba[] = {"R", "G", "B", "A"};
   const int nc = image.channels;
@@ -77,6 +79,7 @@ void WriteExr(const fs::path& path, const Image& image, ExrPixelType type) {
     try {
       Imf::Header header(image.width, image.height);
       header.compression() = Imf::ZIP_COMPRESSION;
+      if (latlong_envmap) Imf::addEnvmap(header, Imf::ENVMAP_LATLONG);
       const Imf::PixelType pt = type == ExrPixelType::kHalf ? Imf::HALF : Imf::FLOAT;
       std::vector<std::string> names;
       if (nc == 1) names = {"Y"};
@@ -105,6 +108,27 @@ void WriteExr(const fs::path& path, const Image& image, ExrPixelType type) {
       throw InputError(path.string(), std::string("cannot write EXR: ") + e.what());
     }
   });
+}
+
+}  // namespace
+
+void WriteExr(const fs::path& path, const Image& image, ExrPixelType type) {
+  WriteExrFile(path, image, type, false);
+}
+
+void WriteLatLongExr(const fs::path& path, const Image& image) {
+  SHADOWSG_CHECK(image.width == 2 * image.height);
+  WriteExrFile(path, image, ExrPixelType::kFloat, true);
+}
+
+bool ExrIsLatLong(const fs::path& path) {
+  RequireFile(path);
+  try {
+    Imf::InputFile file(path.string().c_str());
+    return Imf::hasEnvmap(file.header()) && Imf::envmap(file.header()) == Imf::ENVMAP_LATLONG;
+  } catch (const std::exception& e) {
+    throw InputError(path.string(), std::string("unreadable EXR: ") + e.what());
+  }
 }
 
 Image ReadLdr(const fs::path& path) {

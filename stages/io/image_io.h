@@ -15,6 +15,12 @@ enum class ExrPixelType { kHalf, kFloat };
 Image ReadExr(const std::filesystem::path& path, bool keep_alpha = false);
 void WriteExr(const std::filesystem::path& path, const Image& image,
               ExrPixelType type = ExrPixelType::kFloat);
+// An equirectangular map (width 2 x height), float, tagged with OpenEXR's
+// `envmap` attribute = LATLONG (ImfEnvmap.h); the caller lays it out in
+// OpenEXR's convention first (EnvMapToLatLong, calib/conventions.h).
+void WriteLatLongExr(const std::filesystem::path& path, const Image& image);
+// True when the EXR's header says envmap = LATLONG.
+bool ExrIsLatLong(const std::filesystem::path& path);
 
 // 8- or 16-bit PNG/JPEG as values in [0, 1] (no linearisation), RGB order.
 Image ReadLdr(const std::filesystem::path& path);

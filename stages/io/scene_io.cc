@@ -97,6 +97,39 @@ Image ReadPlaneTexture(const fs::path& path) {
   return tex;
 }
 
+SceneObject ParseSceneObject(const JsonReader& o, const fs::path& dir) {
+  std::error_code ec;
+  SceneObject obj;
+  obj.mesh_path = o.String("path_to_mesh");
+  obj.sph_path = o.String("path_to_sph", "");
+  obj.o2w = o.Mat4("o2w");
+  CheckRigid(o, "o2w", obj.o2w, true);
+  if (o.Has("diffuse")) obj.diffuse = o.Vec3("diffuse");
+  if ((obj.diffuse.array() < 0).any()) o.Fail("diffuse", "albedo must be non-negative");
+  obj.is_train = o.Bool("is_train", true);
+  obj.mesh = ReadMesh(dir / obj.mesh_path);
+  if (!obj.sph_path.empty() && fs::is_regular_file(dir / obj.sph_path, ec)) obj.sphere_tree = ReadSph(dir / obj.sph_path);
+  return obj;
+}
+
+std::vector<SceneObject> ReadObjectsFile(const fs::path& path) {
+  const Json doc = ReadJsonFile(path);
+  const JsonReader root(doc, path.string());
+  if (!doc.is_object()) root.Fail("", "expected a JSON object");
+  const std::string format = root.String("format", "objects/1");
+  if (format != "objects/1") root.Fail("format", "expected \"objects/1\", got \"" + format + "\"");
+  const JsonReader list = root.Child("objects");
+  if (list.Size() == 0) root.Fail("objects", "no objects");
+  std::vector<SceneObject> objects;
+  for (size_t i = 0; i < list.Size(); ++i) {
+    const JsonReader o = list.Element(i);
+    if (o.Bool("is_train", false)) o.Fail("is_train", "an objects file lists virtual objects (\"is_train\": false)");
+    objects.push_back(ParseSceneObject(o, path.parent_path()));
+    objects.back().is_train = false;
+  }
+  return objects;
+}
+
 Scene LoadScene(const fs::path& dir, const SceneLoadOptions& options) {
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) throw InputError(dir.string(), "scene folder not found");
@@ -114,20 +147,7 @@ Scene LoadScene(const fs::path& dir, const SceneLoadOptions& options) {
 
   const JsonReader objects = root.Child("objects");
   if (objects.Size() == 0) root.Fail("objects", "no objects: a scene needs a shadow caster");
-  for (size_t i = 0; i < objects.Size(); ++i) {
-    const JsonReader o = objects.Element(i);
-    SceneObject obj;
-    obj.mesh_path = o.String("path_to_mesh");
-    obj.sph_path = o.String("path_to_sph", "");
-    obj.o2w = o.Mat4("o2w");
-    CheckRigid(o, "o2w", obj.o2w, true);
-    if (o.Has("diffuse")) obj.diffuse = o.Vec3("diffuse");
-    obj.is_train = o.Bool("is_train", true);
-    obj.mesh = ReadMesh(dir / obj.mesh_path);
-    if (!obj.sph_path.empty() && fs::is_regular_file(dir / obj.sph_path, ec))
-      obj.sphere_tree = ReadSph(dir / obj.sph_path);
-    scene.objects.push_back(std::move(obj));
-  }
+  for (size_t i = 0; i < objects.Size(); ++i) scene.objects.push_back(ParseSceneObject(objects.Element(i), dir));
   if (scene.Casters().empty()) root.Fail("objects", "no object has \"is_train\": true (no shadow caster)");
 
   auto check_size = [&](const Image& img, const fs::path& path) {

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "solver/scene.h"
 #include "stages/io/json_util.h"
@@ -16,6 +17,15 @@ struct SceneLoadOptions {
 };
 
 Scene LoadScene(const std::filesystem::path& dir, const SceneLoadOptions& options = {});
+
+// One entry of scene.json's "objects" (path_to_mesh, path_to_sph, o2w,
+// diffuse, is_train), its files relative to `dir`; the mesh is read, and the
+// sphere tree when the file exists.
+SceneObject ParseSceneObject(const JsonReader& object, const std::filesystem::path& dir);
+// An objects file: virtual objects to insert (`shadowsg composite --objects`),
+//   {"format": "objects/1", "objects": [ entries as in scene.json ]}
+// with files relative to the objects file; "is_train" must be absent or false.
+std::vector<SceneObject> ReadObjectsFile(const std::filesystem::path& path);
 
 // The parts of scene.json that do not need other files (camera, plane,
 // object poses and paths); `file` names the document in errors.
