@@ -1,6 +1,7 @@
 #include "pipeline/cli_common.h"
 
 #include <omp.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <memory>
@@ -31,7 +32,9 @@ StageContext MakeContext(const CommonOptions& o) {
       if (f >= 1.0) bar->Finish();
     };
   };
-  ctx.log = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
+  // On a terminal, a log line first clears a progress bar drawn on its line.
+  const bool tty = isatty(2) != 0;
+  ctx.log = [tty](const std::string& line) { std::fprintf(stderr, "%s%s\n", tty ? "\r\033[K" : "", line.c_str()); };
   return ctx;
 }
 

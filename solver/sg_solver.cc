@@ -496,40 +496,32 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   std::vector<SgLobe> merged = MergeLobes(atoms_fit, o.merge_overlap);
   std::sort(merged.begin(), merged.end(), [](const SgLobe& a, const SgLobe& b) { return Power(a) > Power(b); });
 
-  // Size path, from large to small: all merged lobes refined jointly, then
-  // repeatedly the weakest lobe removed and the rest refined. Going down
-  // keeps every light represented while the others settle (going up, the
-  // first lobe would widen to absorb lights not yet in the model). The
-  // held-out error of each model decides how many the scene needs.
-  const int max_lobes = o.lobes > 0 ? std::max(o.lobes, 1) : o.max_lobes;
+  // Size path: the strongest k merged lobes, k = 1, 2, ..., each refined
+  // jointly from the previous model plus the next lobe; the held-out error of
+  // each decides how many the scene needs.
+  const int max_lobes = o.lobes > 0 ? o.lobes : o.max_lobes;
   const std::vector<Eigen::Vector3f> fit_targets = Gather(targets, sets.fit);
-  const std::vector<Eigen::Vector3f> hold_targets = Gather(targets, sets.holdout);
   SgLighting lighting;
   lighting.up = model.normal;
-  for (size_t k = 0; k < merged.size() && static_cast<int>(k) < std::max(max_lobes, o.lobes); ++k)
-    lighting.lobes.push_back(merged[k]);
   std::vector<SgLighting> path;
   std::vector<double> path_mse;
-  RefineLobes(fit_model, sets.weight, fit_targets, 2 * o.path_refine_iterations, &lighting, nullptr);
-  const size_t start_size = lighting.lobes.size();
-  while (!lighting.lobes.empty()) {
-    if (o.lobes == 0 || static_cast<int>(lighting.lobes.size()) <= o.lobes) {
-      path.push_back(lighting);
-      path_mse.push_back(WeightedMse(hold_model, lighting, {}, hold_targets));
-      char status[96];
-      std::snprintf(status, sizeof(status), "%zu lobes, held-out mse %.3e", lighting.lobes.size(), path_mse.back());
-      Report(progress, 0.4 + 0.4 * (1 - static_cast<double>(lighting.lobes.size()) / start_size), status);
-    }
-    if (o.lobes > 0 && static_cast<int>(lighting.lobes.size()) <= o.lobes) break;
-    if (lighting.lobes.size() == 1) break;
-    const auto weakest = std::min_element(lighting.lobes.begin(), lighting.lobes.end(),
-                                          [](const SgLobe& a, const SgLobe& b) { return Power(a) < Power(b); });
-    lighting.lobes.erase(weakest);
+  double best_mse = std::numeric_limits<double>::infinity();
+  int since_best = 0;
+  for (size_t k = 0; k < merged.size() && static_cast<int>(lighting.lobes.size()) < max_lobes; ++k) {
+    lighting.lobes.push_back(merged[k]);
+    // Lobes not yet in the model carry light the refinement must not miss:
+    // the first ones absorb it, later ones give it back.
     RefineLobes(fit_model, sets.weight, fit_targets, o.path_refine_iterations, &lighting, nullptr);
+    const double mse = WeightedMse(hold_model, lighting, {}, Gather(targets, sets.holdout));
+    path.push_back(lighting);
+    path_mse.push_back(mse);
+    if (mse < best_mse * (1 - o.improvement)) best_mse = mse, since_best = 0;
+    else ++since_best;
+    char status[96];
+    std::snprintf(status, sizeof(status), "%zu lobes, held-out mse %.3e", lighting.lobes.size(), mse);
+    Report(progress, 0.4 + 0.4 * std::min(1.0, static_cast<double>(path.size()) / merged.size()), status);
+    if (o.lobes == 0 && since_best >= o.patience) break;  // the held-out error stopped improving
   }
-  // Smallest first, as the selection below expects.
-  std::reverse(path.begin(), path.end());
-  std::reverse(path_mse.begin(), path_mse.end());
   if (path.empty()) throw std::runtime_error("sg: no lobe lowers the error (is the plane lit at all?)");
   sum.heldout_mse = path_mse;
   // Smallest model within tolerance of the best held-out error.

@@ -12,12 +12,13 @@
 //    active-set method (solver/nnls.h on the active Gram matrix), a convex
 //    problem; neighbouring atoms of the solution are merged into one lobe
 //    each (power and first moment kept).
-// 4. Size path, from large to small: all merged lobes refined jointly by
-//    Levenberg-Marquardt (Ceres: axes as angles bounded to the hemisphere
-//    above the plane, log-sharpness, non-negative amplitudes, analytic
-//    Jacobians), then the weakest lobe removed and the rest refined, down to
-//    one. The smallest model within `size_tolerance` of the best held-out
-//    error is kept ("no more lobes than the scene needs") and refined further.
+// 4. Size path: the k strongest merged lobes, k = 1, 2, ..., each model
+//    refined from the previous one plus the next lobe by Levenberg-Marquardt
+//    (Ceres: axes on the sphere, log-sharpness, non-negative amplitudes,
+//    analytic Jacobians). The smallest model within `size_tolerance` of the
+//    best held-out error is kept ("no more lobes than the scene needs") and
+//    refined further. (A path from large to small was tried: worse on the
+//    closed-form three-lobe test, 34 dB against 98.)
 // The cosine is integrated exactly (solver/cosine_integral.h) rather than
 // through the paper's one-SG fit.
 #pragma once
@@ -43,6 +44,8 @@ struct SgSolverOptions {
   int max_atoms = 160;             // active-set size cap of the dictionary fit
   double kkt_tolerance = 1e-4;     // stop the dictionary fit when no atom's gradient beats this (relative)
   double merge_overlap = 1.0;      // merge atoms closer than this many lobe widths
+  double improvement = 0.01;       // a held-out drop smaller than this (relative) is no progress
+  int patience = 3;                // stop the size path after this many steps without progress
   int path_refine_iterations = 8;  // LM iterations after each lobe added on the path
   int refine_iterations = 25;      // final LM iterations of the chosen model (0: none)
   uint64_t seed = 0;

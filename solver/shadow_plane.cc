@@ -60,8 +60,13 @@ void PlaneAngles(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3
   else SignedAnglesWithWitness(model.occluders, model.points, axes, theta, witness, model.search, &caps);
 }
 
-ShadowPlaneModel MakeShadowPlaneModel(const Scene& scene, const PlanePixels& pixels) {
+ShadowPlaneModel MakeShadowPlaneModel(const Scene& scene, const PlanePixels& pixels, ShadingModel shading) {
   ShadowPlaneModel model;
+  if (shading == ShadingModel::kSg) {
+    model.cosine = CosineModel::kExact;
+    model.cap_occlusion = true;
+    model.upper_hemisphere_only = false;
+  }
   model.points = pixels.point;
   model.normal = scene.plane.normal;
   model.albedo.reserve(pixels.size());

@@ -51,8 +51,14 @@ std::vector<float> OccluderConeCosines(const std::vector<SphereTree>& trees, con
 // to double precision: no occluder search needs to look further.
 float VisibilityCap(const ProductLobe& product);
 
+// Which shading the model uses: the paper's (cosine as one SG, plain sigmoid
+// visibility, lobes below the plane dropped) or `sg`'s (exact cosine,
+// occlusion capped by the caster's cone, every lobe kept).
+enum class ShadingModel { kPaper, kSg };
+
 // The model of a scene's plane pixels; every caster must have a sphere tree.
-ShadowPlaneModel MakeShadowPlaneModel(const Scene& scene, const PlanePixels& pixels);
+ShadowPlaneModel MakeShadowPlaneModel(const Scene& scene, const PlanePixels& pixels,
+                                      ShadingModel shading = ShadingModel::kPaper);
 
 // Closed-form radiance of every point. Multithreaded.
 std::vector<Eigen::Vector3f> RenderShadowPlane(const ShadowPlaneModel& model, const SgLighting& lighting);

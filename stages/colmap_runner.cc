@@ -243,7 +243,7 @@ ColmapRunResult RunColmap(const ColmapRunOptions& o, const StageContext& ctx) {
   r.sparse_dir = o.workspace / "sparse";
   r.log = o.workspace / "colmap.log";
   std::ofstream log(r.log, std::ios::trunc);
-  const ProgressFn progress = ctx.Progress("colmap");
+  const ProgressFn progress = ctx.Progress("sfm");
   const Stopwatch watch;
   const std::vector<std::vector<std::string>> commands = ColmapCommands(o);
   const double share[3] = {kExtractShare, kMatchShare, 1.0 - kExtractShare - kMatchShare};

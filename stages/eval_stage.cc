@@ -11,7 +11,6 @@
 #include "stages/evaluation.h"
 #include "stages/io/lighting_io.h"
 #include "stages/io/scene_io.h"
-#include "stages/sphere_tree_stage.h"
 #include "stages/stage_util.h"
 
 namespace shadowsg {
@@ -41,19 +40,10 @@ void RunEval(const fs::path& scene_dir, const fs::path& lighting_file, const fs:
   est.plane_render.assign(pixels.size(), Eigen::Vector3f::Zero());
   Stopwatch render_clock;
   if (lights.sg) {
-    for (auto& obj : scene.objects)
-      if (obj.is_train) EnsureSphereTree(obj, scene_dir, ctx);
-    ShadowPlaneModel model = MakeShadowPlaneModel(scene, pixels);
-    if (o.sg_model == "sg") {
-      model.cosine = CosineModel::kExact;
-      model.cap_occlusion = true;
-      model.upper_hemisphere_only = false;
-    }
-    est.plane_render = RenderShadowPlane(model, *lights.sg);
+    const ShadowPlaneModel model = PrepareShadowPlane(
+        scene, scene_dir, pixels, o.sg_model == "sg" ? ShadingModel::kSg : ShadingModel::kPaper, ctx);
     est.sg = lights.sg;
-    est.envmap = SgToEnvMap(*lights.sg, kEnvMapOutputHeight);
-    est.n_lobes = static_cast<int>(lights.sg->lobes.size());
-    est.n_params = 6 * est.n_lobes;
+    CompleteSgEstimate(model, &est);
   }
   if (lights.env) {
     const int rows = o.map_height;

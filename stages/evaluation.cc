@@ -7,9 +7,24 @@
 #include "stages/composite_stage.h"
 #include "stages/io/image_io.h"
 #include "stages/io/lighting_io.h"
+#include "stages/sphere_tree_stage.h"
 
 namespace shadowsg {
 namespace fs = std::filesystem;
+
+ShadowPlaneModel PrepareShadowPlane(Scene& scene, const fs::path& scene_dir, const PlanePixels& pixels,
+                                    ShadingModel shading, const StageContext& ctx) {
+  for (auto& obj : scene.objects)
+    if (obj.is_train) EnsureSphereTree(obj, scene_dir, ctx);
+  return MakeShadowPlaneModel(scene, pixels, shading);
+}
+
+void CompleteSgEstimate(const ShadowPlaneModel& model, LightingEstimate* est) {
+  est->plane_render = RenderShadowPlane(model, *est->sg);
+  est->envmap = SgToEnvMap(*est->sg, kEnvMapOutputHeight);
+  est->n_lobes = static_cast<int>(est->sg->lobes.size());
+  est->n_params = 6 * est->n_lobes;
+}
 
 Image PlaneRenderImage(const PlanePixels& pixels, const std::vector<Eigen::Vector3f>& values) {
   Image img(pixels.width, pixels.height, 3);

@@ -11,6 +11,7 @@
 #include "solver/plane_pixels.h"
 #include "solver/scene.h"
 #include "solver/sg.h"
+#include "solver/shadow_plane.h"
 #include "stages/io/json_util.h"
 #include "stages/stage_context.h"
 #include "stages/stage_util.h"
@@ -30,6 +31,14 @@ struct LightingEstimate {
 
 // Height of the env maps written for SG estimates.
 inline constexpr int kEnvMapOutputHeight = 256;
+
+// Builds (or loads from the cache) the casters' sphere trees and the SG model
+// of the plane pixels.
+ShadowPlaneModel PrepareShadowPlane(Scene& scene, const std::filesystem::path& scene_dir, const PlanePixels& pixels,
+                                    ShadingModel shading, const StageContext& ctx);
+
+// Fills an SG estimate's render (every plane pixel), env map and sizes.
+void CompleteSgEstimate(const ShadowPlaneModel& model, LightingEstimate* estimate);
 
 // Full-size image with the plane render at plane pixels and 0 elsewhere.
 Image PlaneRenderImage(const PlanePixels& pixels, const std::vector<Eigen::Vector3f>& values);

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <exception>
 #include <map>
 
 #include "calib/apriltag_detect.h"
@@ -108,51 +109,62 @@ std::vector<TagScaleReport> MeasureTags(const ColmapModel& model, const PlaneSta
   using CornerRays = std::array<std::vector<RayT>, 4>;
   std::vector<std::map<int, std::array<RayT, 4>>> per_image(images.size());
   std::vector<std::string> problems(images.size());
+  std::vector<std::exception_ptr> errors(images.size());
   TagDetectorOptions detector;
   detector.family = o.tag_family;
   const ProgressFn progress = ctx.Progress("tags");
   int done = 0;
+  // One photo: its detections as rays; InputError for an unreadable photo.
+  auto detect_in = [&](long i) {
+    const ColmapImage& im = *images[i];
+    const fs::path path = o.images / im.name;
+    std::error_code ec;
+    if (!fs::is_regular_file(path, ec)) {
+      problems[i] = path.string() + ": not found (tags not searched)";
+    } else {
+      // Detection on the display-referred photo, corners refined in linear
+      // intensity (tag_refine.h: the detector's edges sit ~1 % inside).
+      Image display = ReadImage(path), linear = display;
+      if (Lower(path.extension().string()) == ".exr")
+        display = ToneMap(display);
+      else
+        for (float& v : linear.data) v = SrgbDecode(v);
+      Camera cam = ColmapImageCamera(model, im);
+      if (cam.width != display.width || cam.height != display.height) {
+        problems[i] = path.string() + ": size differs from COLMAP's camera (tags not searched)";
+      } else {
+        for (const TagDetection& d : DetectTags(display, detector)) {
+          if (o.tag_id >= 0 && d.id != o.tag_id) continue;
+          if (per_image[i].count(d.id)) continue;  // the strongest detection comes first
+          std::array<Eigen::Vector2d, 4> corners = d.corners;
+          if (const auto refined = RefineTagCorners(linear, d, MakeTagPattern(o.tag_family, d.id)))
+            corners = *refined;
+          std::array<RayT, 4> rays;
+          for (int k = 0; k < 4; ++k) {
+            const Ray r = PixelRay(cam, corners[k].x(), corners[k].y());
+            rays[k] = {r.origin, r.dir};
+          }
+          per_image[i][d.id] = rays;
+        }
+      }
+    }
+  };
 #pragma omp parallel for schedule(dynamic) num_threads(std::max(1, ctx.threads))
   for (long i = 0; i < static_cast<long>(images.size()); ++i) {
     try {
-      const ColmapImage& im = *images[i];
-      const fs::path path = o.images / im.name;
-      std::error_code ec;
-      if (!fs::is_regular_file(path, ec)) {
-        problems[i] = path.string() + ": not found (tags not searched)";
-      } else {
-        // Detection on the display-referred photo, corners refined in linear
-        // intensity (tag_refine.h: the detector's edges sit ~1 % inside).
-        Image display = ReadImage(path), linear = display;
-        if (Lower(path.extension().string()) == ".exr")
-          display = ToneMap(display);
-        else
-          for (float& v : linear.data) v = SrgbDecode(v);
-        Camera cam = ColmapImageCamera(model, im);
-        if (cam.width != display.width || cam.height != display.height) {
-          problems[i] = path.string() + ": size differs from COLMAP's camera (tags not searched)";
-        } else {
-          for (const TagDetection& d : DetectTags(display, detector)) {
-            if (o.tag_id >= 0 && d.id != o.tag_id) continue;
-            if (per_image[i].count(d.id)) continue;  // the strongest detection comes first
-            std::array<Eigen::Vector2d, 4> corners = d.corners;
-            if (const auto refined = RefineTagCorners(linear, d, MakeTagPattern(o.tag_family, d.id)))
-              corners = *refined;
-            std::array<RayT, 4> rays;
-            for (int k = 0; k < 4; ++k) {
-              const Ray r = PixelRay(cam, corners[k].x(), corners[k].y());
-              rays[k] = {r.origin, r.dir};
-            }
-            per_image[i][d.id] = rays;
-          }
-        }
+      try {
+        detect_in(i);
+      } catch (const InputError& e) {
+        problems[i] = e.what();
       }
-    } catch (const InputError& e) {
-      problems[i] = e.what();
+#pragma omp critical(plane_tags_progress)
+      Report(progress, static_cast<double>(++done) / images.size(), "detecting " + o.tag_family + " tags");
+    } catch (...) {
+      errors[i] = std::current_exception();  // e.g. Interrupted from the progress callback
     }
-#pragma omp critical
-    Report(progress, static_cast<double>(++done) / images.size(), "detecting " + o.tag_family + " tags");
   }
+  for (const auto& e : errors)
+    if (e) std::rethrow_exception(e);
   for (const auto& p : problems)
     if (!p.empty()) ctx.Warn(p);
 
@@ -276,10 +288,9 @@ PlaneStageResult RegisterPlane(const ColmapModel& model, const PlaneStageOptions
   std::vector<std::string> registered;
   for (const auto& [id, im] : model.images) registered.push_back(im.name);
   if (r.registered_images < o.min_registered)
-    throw InputError("COLMAP", "registered only " + std::to_string(r.registered_images) + " image(s)" +
-                                   (o.min_registered > 0 ? " (at least " + std::to_string(o.min_registered) +
-                                                               " needed)" : "") +
-                                   ": the photos need more overlap, texture or sharpness");
+    throw InputError("COLMAP", "registered only " + std::to_string(r.registered_images) + " image(s) (at least " +
+                                   std::to_string(o.min_registered) +
+                                   " needed): the photos need more overlap, texture or sharpness");
 
   // The hero.
   r.hero_name = HeroName(o.hero);

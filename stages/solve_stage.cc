@@ -11,7 +11,6 @@
 #include "stages/composite_stage.h"
 #include "stages/evaluation.h"
 #include "stages/io/scene_io.h"
-#include "stages/sphere_tree_stage.h"
 #include "stages/stage_util.h"
 
 namespace shadowsg {
@@ -40,9 +39,7 @@ std::vector<Eigen::Vector3f> Targets(const Scene& scene, const PlanePixels& pixe
 
 LightingEstimate SolveWithSgPaper(Scene& scene, const fs::path& scene_dir, const PlanePixels& pixels,
                                   const SolveOptions& o, const StageContext& ctx) {
-  for (auto& obj : scene.objects)
-    if (obj.is_train) EnsureSphereTree(obj, scene_dir, ctx);
-  ShadowPlaneModel model = MakeShadowPlaneModel(scene, pixels);
+  ShadowPlaneModel model = PrepareShadowPlane(scene, scene_dir, pixels, ShadingModel::kPaper, ctx);
   model.search = o.ssdf == "c2f" ? SsdfSearch::kCoarseToFine : SsdfSearch::kExact;
   SgPaperOptions po;
   if (o.lobes > 0) po.lobes = o.lobes;
@@ -56,10 +53,7 @@ LightingEstimate SolveWithSgPaper(Scene& scene, const fs::path& scene_dir, const
   est.method = o.method;
   est.sg = SolveSgPaper(model, Targets(scene, pixels), po, &summary, ctx.Progress("sg-paper"));
   est.solve_seconds = solve_clock.Seconds();
-  est.plane_render = RenderShadowPlane(model, *est.sg);
-  est.envmap = SgToEnvMap(*est.sg, kEnvMapOutputHeight);
-  est.n_lobes = static_cast<int>(est.sg->lobes.size());
-  est.n_params = 6 * est.n_lobes;
+  CompleteSgEstimate(model, &est);
   est.extra = Json{{"steps", summary.iterations},
                    {"final_batch_loss", summary.final_loss},
                    {"lobes_initial", summary.lobes_initial},
@@ -69,13 +63,8 @@ LightingEstimate SolveWithSgPaper(Scene& scene, const fs::path& scene_dir, const
 
 LightingEstimate SolveWithSg(Scene& scene, const fs::path& scene_dir, const PlanePixels& pixels,
                              const SolveOptions& o, const StageContext& ctx) {
-  for (auto& obj : scene.objects)
-    if (obj.is_train) EnsureSphereTree(obj, scene_dir, ctx);
-  ShadowPlaneModel model = MakeShadowPlaneModel(scene, pixels);
+  ShadowPlaneModel model = PrepareShadowPlane(scene, scene_dir, pixels, ShadingModel::kSg, ctx);
   model.search = o.ssdf == "c2f" ? SsdfSearch::kCoarseToFine : SsdfSearch::kExact;
-  model.cosine = CosineModel::kExact;
-  model.cap_occlusion = true;
-  model.upper_hemisphere_only = false;
   SgSolverOptions so = SgSolverOptions::Budget(o.budget);
   so.lobes = o.lobes;
   so.seed = ctx.seed;
@@ -87,10 +76,7 @@ LightingEstimate SolveWithSg(Scene& scene, const fs::path& scene_dir, const Plan
   est.method = o.method;
   est.sg = SolveSg(model, Targets(scene, pixels), so, &summary, ctx.Progress("sg"));
   est.solve_seconds = solve_clock.Seconds();
-  est.plane_render = RenderShadowPlane(model, *est.sg);
-  est.envmap = SgToEnvMap(*est.sg, kEnvMapOutputHeight);
-  est.n_lobes = static_cast<int>(est.sg->lobes.size());
-  est.n_params = 6 * est.n_lobes;
+  CompleteSgEstimate(model, &est);
   est.extra = Json{{"budget", o.budget},
                    {"heldout_mse_path", summary.heldout_mse},
                    {"fit_mse_selected", summary.fit_mse_selected},

@@ -52,6 +52,10 @@ bool FolderWritable(const fs::path& dir) {
   // The folder may not exist yet: then its nearest existing ancestor decides.
   while (!d.empty() && !fs::exists(d, ec)) d = d.parent_path();
   if (d.empty()) d = ".";
+  // root passes access(W_OK) everywhere: also honour the folder's mode bits,
+  // so a scene folder marked read-only (shared data sets) is never written.
+  const fs::perms p = fs::status(d, ec).permissions();
+  if (ec || (p & fs::perms::owner_write) == fs::perms::none) return false;
   return access(d.c_str(), W_OK) == 0;
 }
 

@@ -36,7 +36,7 @@ using testing::TempDir;
 
 constexpr int kRingViews = 20;
 // CPU matching is brute force: fewer features keep the 210 pairs quick.
-constexpr int kMaxFeatures = 1024;
+constexpr int kMaxFeatures = 768;
 constexpr int kBoardCols = 8, kBoardRows = 5, kBoardViews = 12;
 constexpr double kBoardSquare = 0.03;
 

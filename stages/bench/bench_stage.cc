@@ -166,7 +166,7 @@ BenchSummary RunBench(const BenchOptions& o, const StageContext& ctx) {
   size_t k = 0;
   for (const BenchScene& scene : report.scenes)
     for (const BenchSetting& s : all) {
-      const std::string tag = "[" + std::to_string(++k) + "/" + std::to_string(n_runs) + "]";
+      const std::string tag = std::string("[") + std::to_string(++k) + "/" + std::to_string(n_runs) + "]";
       report.runs.push_back(
           RunBenchSetting(scene, s, o.out_dir, fs::path("runs") / scene.name / s.Name(), o.force, tag, ctx));
       if (report.runs.back().reused && report.runs.back().Number("threads") &&
@@ -202,7 +202,7 @@ BenchSummary RunBench(const BenchOptions& o, const StageContext& ctx) {
         for (const BenchSetting& s : report.stability_settings) {
           if (!p.affects_baselines && s.method != "sg" && s.method != "sg-paper") continue;
           const BenchRun* clean = report.FindRun(scene, s.Name());
-          const std::string tag = "[" + std::to_string(++j) + "/" + std::to_string(total) + "]";
+          const std::string tag = std::string("[") + std::to_string(++j) + "/" + std::to_string(total) + "]";
           if (!clean || !clean->ok()) {
             StabilityRun failed;
             failed.scene = &scene;

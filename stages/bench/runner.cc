@@ -69,7 +69,7 @@ BenchSetting PaperSteps(int steps) {
 BenchSetting Baseline(const std::string& method, int rows) {
   BenchSetting s;
   s.method = method;
-  s.setting = "h" + std::to_string(rows);
+  s.setting = std::string("h") + std::to_string(rows);
   s.label = std::to_string(rows) + "x" + std::to_string(4 * rows) + " map";
   s.series = method;
   s.solve.method = method;

@@ -1,0 +1,91 @@
+// Google Benchmark of the solver's inner kernels (speed targets are checked
+// here and by `shadowsg bench`, never by timed unit tests):
+//   build/tests/shadowsg_kernels_benchmark --benchmark_min_time=0.5
+#include <benchmark/benchmark.h>
+
+#include <random>
+
+#include "solver/cosine_integral.h"
+#include "solver/primitives.h"
+#include "solver/shadow_plane.h"
+#include "solver/sphere_tree_build.h"
+#include "solver/ssdf.h"
+
+namespace shadowsg {
+namespace {
+
+const SphereTree& TorusTree() {
+  static const SphereTree tree = BuildSphereTree(MakeTorus(0.2, 0.06, 64, 32), SphereTreeBuildOptions{});
+  return tree;
+}
+
+std::vector<Eigen::Vector3d> PlanePoints(int n) {
+  std::mt19937 rng(1);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::vector<Eigen::Vector3d> p;
+  for (int i = 0; i < n; ++i) p.emplace_back(u(rng), u(rng), -0.3);
+  return p;
+}
+
+std::vector<Eigen::Vector3d> Axes(int n) {
+  std::mt19937 rng(2);
+  std::normal_distribution<double> g;
+  std::vector<Eigen::Vector3d> a;
+  for (int i = 0; i < n; ++i) {
+    Eigen::Vector3d v(g(rng), g(rng), std::abs(g(rng)) + 0.2);
+    a.push_back(v.normalized());
+  }
+  return a;
+}
+
+// theta for every (point, axis) pair, as the dictionary fit needs it.
+void BM_SignedAngles(benchmark::State& state) {
+  const std::vector<SphereTree> trees = {TorusTree()};
+  const auto points = PlanePoints(static_cast<int>(state.range(0)));
+  const auto axes = Axes(static_cast<int>(state.range(1)));
+  Eigen::MatrixXf theta;
+  for (auto _ : state) SignedAngles(trees, points, axes, &theta);
+  state.SetItemsProcessed(state.iterations() * points.size() * axes.size());
+}
+BENCHMARK(BM_SignedAngles)->Args({4096, 300})->Unit(benchmark::kMillisecond);
+
+// The same with cone tables prepared once (the fit's repeated evaluations).
+void BM_PreparedCones(benchmark::State& state) {
+  const OccluderCones cones({TorusTree()}, PlanePoints(static_cast<int>(state.range(0))));
+  const auto axes = Axes(static_cast<int>(state.range(1)));
+  Eigen::MatrixXf theta;
+  std::vector<Eigen::Vector3f> witness;
+  for (auto _ : state) cones.Angles(axes, &theta, &witness);
+  state.SetItemsProcessed(state.iterations() * cones.size() * axes.size());
+}
+BENCHMARK(BM_PreparedCones)->Args({16384, 8})->Unit(benchmark::kMillisecond);
+
+// Closed-form render of plane points under an SG lighting (sg model).
+void BM_RenderShadowPlane(benchmark::State& state) {
+  ShadowPlaneModel model;
+  model.points = PlanePoints(static_cast<int>(state.range(0)));
+  model.albedo.assign(model.points.size(), Eigen::Vector3f::Constant(0.8f));
+  model.occluders = {TorusTree()};
+  model.cosine = CosineModel::kExact;
+  model.cap_occlusion = true;
+  model.occluder_cos = OccluderConeCosines(model.occluders, model.points);
+  SgLighting l;
+  for (const auto& a : Axes(static_cast<int>(state.range(1)))) l.lobes.push_back({a, 30.0, Eigen::Vector3d::Ones()});
+  for (auto _ : state) benchmark::DoNotOptimize(RenderShadowPlane(model, l));
+  state.SetItemsProcessed(state.iterations() * model.points.size() * l.lobes.size());
+}
+BENCHMARK(BM_RenderShadowPlane)->Args({65536, 8})->Unit(benchmark::kMillisecond);
+
+void BM_SgCosineIntegral(benchmark::State& state) {
+  double lambda = 1, c = 0.3;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(SgCosineIntegral(lambda, c));
+    lambda = lambda < 1000 ? lambda * 1.1 : 1;
+  }
+}
+BENCHMARK(BM_SgCosineIntegral);
+
+}  // namespace
+}  // namespace shadowsg
+
+BENCHMARK_MAIN();
