@@ -1,5 +1,6 @@
 // `shadowsg demo [--out demo-out] [--quick]`: synthesises the bundled sample
-// scene (data/sample: Spot the cow, CC0) and says where to look.
+// scene (data/sample: Spot the cow, CC0), estimates its lighting with `sg`,
+// and says where to look.
 #include <unistd.h>
 
 #include <cstdio>
@@ -11,6 +12,7 @@
 #include "pipeline/cli_common.h"
 #include "pipeline/commands.h"
 #include "pipeline/sample_data.h"
+#include "stages/solve_stage.h"
 #include "stages/stage_util.h"
 #include "stages/synth_stage.h"
 
@@ -53,7 +55,13 @@ void RegisterDemoCommand(CLI::App& app) {
     const fs::path scene_dir = out / "scene";
     ctx.Log("demo: synthesising " + spec_path.string() + " into " + scene_dir.string());
     const SynthResult r = RunSynthStage(spec, scene_dir, ctx);
+    const fs::path solve_dir = out / "solve";
+    SolveOptions solve;
+    solve.budget = opt->quick ? "fast" : "balanced";
+    ctx.Log("demo: estimating the lighting (sg, " + solve.budget + ") into " + solve_dir.string());
+    RunSolve(scene_dir, solve_dir, solve, ctx);
     const std::string s = scene_dir.string();
+    const std::string so = solve_dir.string();
     std::printf("shadowsg demo: Spot the cow on a ground plane under a sun and a sky, %dx%d, %d spp,\n"
                 "done in %.1f s on %d threads. Look at:\n",
                 spec.camera.width, spec.camera.height, spec.trace.samples_per_pixel, clock.Seconds(), ctx.threads);
@@ -64,7 +72,11 @@ void RegisterDemoCommand(CLI::App& app) {
     std::printf("  %s/env_gt.png               the true lighting as an environment map (env_gt.exr)\n", s.c_str());
     std::printf("  %s/scene.json               camera, plane and objects (scene-format.md); lights.json: the lights\n",
                 s.c_str());
-    std::printf("Then: shadowsg solve %s --out %s/solve\n", s.c_str(), out.string().c_str());
+    std::printf("  %s/render.png               the shadow plane re-rendered from the estimated lighting\n", so.c_str());
+    std::printf("  %s/error.png                where it differs from the photograph (10 %% of the range = white)\n",
+                so.c_str());
+    std::printf("  %s/envmap.png               the estimated lighting (lighting.json: its lobes)\n", so.c_str());
+    std::printf("  %s/metrics.json             PSNR, SSIM, env-map errors, lobes, seconds\n", so.c_str());
   });
 }
 

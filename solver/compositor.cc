@@ -2,12 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <optional>
 #include <vector>
 
 #include "calib/camera.h"
 #include "calib/conventions.h"
 #include "calib/error.h"
+#include "solver/cosine_integral.h"
 #include "solver/envmap.h"
 #include "solver/path_tracer.h"
 #include "solver/ray_caster.h"
@@ -121,6 +123,29 @@ struct ObjectCaster {
   }
 };
 
+// C(lambda, c) = SgCosineIntegral(lambda, c).value of one sharpness at
+// kCosineTableSize + 1 evenly spaced c in [-1, 1], linearly interpolated:
+// surface points have a normal each, and the quadrature is too slow to run
+// per point and lobe. C is smooth in c (its kinks lie in the integrand only).
+constexpr int kCosineTableSize = 1024;
+
+class CosineTable {
+ public:
+  explicit CosineTable(double lambda) : value_(kCosineTableSize + 1) {
+    for (int i = 0; i <= kCosineTableSize; ++i)
+      value_[i] = SgCosineIntegral(lambda, -1.0 + 2.0 * i / kCosineTableSize).value;
+  }
+  double operator()(double c) const {
+    const double x = (std::clamp(c, -1.0, 1.0) + 1.0) * 0.5 * kCosineTableSize;
+    const int i = std::min(static_cast<int>(x), kCosineTableSize - 1);
+    const double f = x - i;
+    return (1 - f) * value_[i] + f * value_[i + 1];
+  }
+
+ private:
+  std::vector<double> value_;
+};
+
 // A point on an object's surface seen by one sub-pixel ray (or a pixel centre).
 struct SurfaceSample {
   int pixel = 0;
@@ -160,8 +185,22 @@ std::vector<Eigen::Vector3d> ShadeSurface(const std::vector<SurfaceSample>& samp
   points.reserve(samples.size());
   for (const auto& s : samples) points.push_back(s.point);
   for (const auto& l : sg.lobes) axes.push_back(l.axis);
+  // theta is needed only up to where the sigmoid saturates: the cap of the
+  // least steep product lobe any normal can make (k(lambda') grows with
+  // lambda' >= |lambda - lambda_c|), as RenderShadowPlane's caps.
+  std::vector<float> caps;
+  for (const auto& l : sg.lobes) {
+    ProductLobe flattest;
+    flattest.lambda_prime = std::abs(l.sharpness - kCosineLobeSharpness);
+    caps.push_back(VisibilityCap(flattest));
+  }
   Eigen::MatrixXf theta;
-  SignedAngles(occluders, points, axes, &theta);
+  SignedAnglesWithWitness(occluders, points, axes, &theta, nullptr, SsdfSearch::kExact, &caps);
+  // The exact cosine integral of each lobe, tabulated once per sharpness
+  // (an env map's lobes share one).
+  std::map<double, CosineTable> by_sharpness;
+  std::vector<const CosineTable*> table;
+  for (const auto& l : sg.lobes) table.push_back(&by_sharpness.try_emplace(l.sharpness, l.sharpness).first->second);
 #pragma omp parallel for schedule(static)
   for (long k = 0; k < static_cast<long>(samples.size()); ++k) {
     const SurfaceSample& s = samples[k];
@@ -169,7 +208,10 @@ std::vector<Eigen::Vector3d> ShadeSurface(const std::vector<SurfaceSample>& samp
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     for (size_t j = 0; j < sg.lobes.size(); ++j) {
       const SgLobe& lobe = sg.lobes[j];
-      const ProductLobe product = EvalProductLobe(lobe.axis, lobe.sharpness, s.normal, CosineModel::kExact);
+      // lambda' (the shadow's softness) as EvalProductLobe gives it; the
+      // unoccluded integral exactly (CosineModel::kExact), from the table.
+      ProductLobe product = EvalProductLobe(lobe.axis, lobe.sharpness, s.normal, CosineModel::kSgProduct);
+      product.scale = (*table[j])(lobe.axis.dot(s.normal));
       const double theta_plane = std::asin(std::clamp(side * lobe.axis.dot(plane.normal), -1.0, 1.0));
       const double t = std::min(static_cast<double>(theta(k, static_cast<long>(j))), theta_plane);
       sum += ShadeLobe(product, t, Eigen::Vector3d::Zero()).value * lobe.amplitude;

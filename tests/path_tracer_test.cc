@@ -403,6 +403,7 @@ TEST(LightEnvMap, SunsAndAreaLightsKeepTheirIrradiance) {
   a.half_v = Eigen::Vector3d(0, -0.3, 0);
   a.radiance = Eigen::Vector3d(2, 2, 2);
   area.areas.push_back(a);
+  opt.height = 128;
   const Image env_area = LightSetToEnvMap(area, opt);
   double quad = 0;
   const int k = 200;
