@@ -221,6 +221,54 @@ std::vector<Eigen::Vector3d> ShadeSurface(const std::vector<SurfaceSample>& samp
   return out;
 }
 
+// The plane points of `without` (the casters' model) whose closed-form
+// shading the virtual objects can change. Adding occluders changes a point's
+// radiance only through theta = min over trees, and through the cap's cone
+// (occluder_cos, the smallest cosine over trees); so a point is unchanged when
+// the cone of each virtual object's bounding sphere is wider than none of the
+// casters' (cos_v >= cos_c) and lies, for every lobe, at least that lobe's
+// VisibilityCap away from its axis (a lower bound of the objects' theta: beyond
+// the cap the sigmoid is 1 to 1e-13, and RenderShadowPlane stops there too).
+std::vector<char> VirtualObjectsMatter(const Scene& scene, const std::vector<SphereTree>& world_tree,
+                                       const ShadowPlaneModel& without, const SgLighting& sg) {
+  std::vector<Sphere> bounds;
+  for (size_t i = 0; i < scene.objects.size(); ++i)
+    if (!scene.objects[i].is_train && !world_tree[i].nodes.empty()) bounds.push_back(SubtreeBounds(world_tree[i])[0]);
+  std::vector<float> caps;
+  for (const auto& l : sg.lobes)
+    caps.push_back(VisibilityCap(EvalProductLobe(l.axis, l.sharpness, without.normal, CosineModel::kSgProduct)));
+  std::vector<char> matter(without.points.size(), 0);
+  if (bounds.empty()) return matter;
+#pragma omp parallel for schedule(static)
+  for (long k = 0; k < static_cast<long>(without.points.size()); ++k) {
+    const Eigen::Vector3d& x = without.points[k];
+    bool m = false;
+    for (const Sphere& b : bounds) {
+      if (b.empty()) continue;
+      const Eigen::Vector3d s = b.centre - x;
+      const double d = s.norm();
+      if (d <= b.radius) {
+        m = true;
+        break;
+      }
+      const double cos_v = std::sqrt(1 - (b.radius / d) * (b.radius / d));
+      if (cos_v < without.occluder_cos[k]) {
+        m = true;
+        break;
+      }
+      const Eigen::Vector3d u = s / d;
+      const double half = std::asin(b.radius / d);
+      for (size_t j = 0; j < sg.lobes.size() && !m; ++j) {
+        const double angle = std::atan2(u.cross(sg.lobes[j].axis).norm(), u.dot(sg.lobes[j].axis));
+        m = angle - half < caps[j];
+      }
+      if (m) break;
+    }
+    matter[k] = m;
+  }
+  return matter;
+}
+
 CompositeResult CompositePreview(const Scene& scene, const LightSet& lights, const CompositeOptions& options,
                                  const ProgressFn& progress) {
   const Camera& cam = scene.camera;
@@ -281,10 +329,24 @@ CompositeResult CompositePreview(const Scene& scene, const LightSet& lights, con
     }
   const auto is_caster = [&](int i) { return scene.objects[i].is_train; };
   const auto is_any = [&](int) { return true; };
-  const std::vector<Eigen::Vector3f> plane_without =
-      RenderShadowPlane(PlaneModel(scene, plane_point, trees(is_caster)), sg);
+  const ShadowPlaneModel without_model = PlaneModel(scene, plane_point, trees(is_caster));
+  const std::vector<Eigen::Vector3f> plane_without = RenderShadowPlane(without_model, sg);
   Report(progress, 0.4, "plane without objects");
-  const std::vector<Eigen::Vector3f> plane_with = RenderShadowPlane(PlaneModel(scene, plane_point, trees(is_any)), sg);
+  // With the objects: only where they can change the shading, the rest is
+  // L_without (see VirtualObjectsMatter).
+  std::vector<Eigen::Vector3f> plane_with = plane_without;
+  {
+    const std::vector<char> matter = VirtualObjectsMatter(scene, world_tree, without_model, sg);
+    std::vector<size_t> index;
+    std::vector<Eigen::Vector3d> points;
+    for (size_t k = 0; k < plane_point.size(); ++k)
+      if (matter[k]) {
+        index.push_back(k);
+        points.push_back(plane_point[k]);
+      }
+    const std::vector<Eigen::Vector3f> with = RenderShadowPlane(PlaneModel(scene, points, trees(is_any)), sg);
+    for (size_t m = 0; m < index.size(); ++m) plane_with[index[m]] = with[m];
+  }
   Report(progress, 0.6, "plane with objects");
   for (size_t k = 0; k < plane_pixel.size(); ++k) {
     with_local.set_rgb(plane_pixel[k], plane_with[k]);
