@@ -355,6 +355,39 @@ TEST(PathTracer, DeterministicForAnyThreadCountAndSeedDependent) {
   EXPECT_NE(RenderPathTraced(scene, lights, opt).data, one.data);
 }
 
+// The per-sample split the compositor uses: asking for it leaves the image
+// as it is, and matte-weighted object and rest radiances recombine into it.
+TEST(PathTracer, VirtualObjectSplitRecombinesIntoTheImage) {
+  Scene scene = PlaneScene(24);
+  scene.objects.push_back(Object(MakeIcosphere(0.3, 2), {0, 0, 0.35}, Eigen::Vector3d::Constant(0.6)));
+  scene.objects.push_back(Object(MakeIcosphere(0.2, 2), {0.5, -0.3, 0.25}, Eigen::Vector3d(0.7, 0.3, 0.2), false));
+  LightSet lights;
+  lights.env = TestEnvMap(16);
+  PathTraceOptions opt;
+  opt.samples_per_pixel = 8;
+  opt.objects = RenderObjects::kAll;
+  const Image plain = RenderPathTraced(scene, lights, opt);
+  VirtualObjectSplit split;
+  const Image image = RenderPathTraced(scene, lights, opt, {}, &split);
+  EXPECT_EQ(plain.data, image.data);
+  int full = 0, partial = 0;
+  for (size_t p = 0; p < image.pixels(); ++p) {
+    const float a = split.coverage.data[p];
+    ASSERT_GE(a, 0.0f);
+    ASSERT_LE(a, 1.0f);
+    full += a == 1.0f;
+    partial += a > 0.0f && a < 1.0f;
+    const Eigen::Vector3f mix = a * split.object_radiance.rgb(p) + (1 - a) * split.rest_radiance.rgb(p);
+    EXPECT_NEAR((mix - image.rgb(p)).norm(), 0, 1e-5 * (1 + image.rgb(p).norm()));
+  }
+  EXPECT_GT(full, 0);
+  EXPECT_GT(partial, 0);  // the edges are anti-aliased
+  // Casters are not in the matte.
+  opt.objects = RenderObjects::kCasters;
+  RenderPathTraced(scene, lights, opt, {}, &split);
+  for (float a : split.coverage.data) ASSERT_EQ(a, 0.0f);
+}
+
 TEST(PathTracer, ProgressExceptionStopsTheRender) {
   const Scene scene = PlaneScene(16);
   LightSet lights;
