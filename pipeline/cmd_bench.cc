@@ -45,7 +45,8 @@ void RegisterBenchCommand(CLI::App& app) {
   cmd->add_option("--seeds", opt->bench.seeds, "Stability: re-solves of the clean scene with seeds 1..N")
       ->capture_default_str();
   cmd->add_option("--fail-below", opt->bench.fail_below,
-                  "Stability: a run fails below this PSNR: ss03 (SS03's clean result per scene) or dB")
+                  "Stability: a run fails below this PSNR (dB), or with ss03 below both SS03's clean result and its "
+                  "own clean result - 3 dB")
       ->capture_default_str();
   AddCommonOptions(cmd, &opt->common);
   cmd->callback([opt] {

@@ -225,10 +225,11 @@ std::vector<Eigen::Vector3d> ShadeSurface(const std::vector<SurfaceSample>& samp
 // shading the virtual objects can change. Adding occluders changes a point's
 // radiance only through theta = min over trees, and through the cap's cone
 // (occluder_cos, the smallest cosine over trees); so a point is unchanged when
-// the cone of each virtual object's bounding sphere is wider than none of the
-// casters' (cos_v >= cos_c) and lies, for every lobe, at least that lobe's
-// VisibilityCap away from its axis (a lower bound of the objects' theta: beyond
-// the cap the sigmoid is 1 to 1e-13, and RenderShadowPlane stops there too).
+// the cone of each virtual object's bounding sphere is no wider than the
+// casters' widest (cos_v >= cos_c) and lies, for every lobe, at least that
+// lobe's VisibilityCap away from its axis (a lower bound of the objects'
+// theta: beyond the cap the sigmoid is 1 to 1e-13, and RenderShadowPlane
+// stops there too).
 std::vector<char> VirtualObjectsMatter(const Scene& scene, const std::vector<SphereTree>& world_tree,
                                        const ShadowPlaneModel& without, const SgLighting& sg) {
   std::vector<Sphere> bounds;
@@ -317,7 +318,8 @@ CompositeResult CompositePreview(const Scene& scene, const LightSet& lights, con
   }
   Report(progress, 0.2, "rays cast");
 
-  Image with_local(w, h, 3, 1.0f), without_local(w, h, 3, 1.0f);  // 1/1 where the ray escapes
+  // 1 / 1 where the ray escapes and where the objects change nothing.
+  Image with_local(w, h, 3, 1.0f), without_local(w, h, 3, 1.0f);
 
   // Plane pixels.
   std::vector<int> plane_pixel;
@@ -329,29 +331,27 @@ CompositeResult CompositePreview(const Scene& scene, const LightSet& lights, con
     }
   const auto is_caster = [&](int i) { return scene.objects[i].is_train; };
   const auto is_any = [&](int) { return true; };
-  const ShadowPlaneModel without_model = PlaneModel(scene, plane_point, trees(is_caster));
-  const std::vector<Eigen::Vector3f> plane_without = RenderShadowPlane(without_model, sg);
-  Report(progress, 0.4, "plane without objects");
-  // With the objects: only where they can change the shading, the rest is
-  // L_without (see VirtualObjectsMatter).
-  std::vector<Eigen::Vector3f> plane_with = plane_without;
+  // Both renders only where the virtual objects can change the shading
+  // (VirtualObjectsMatter); elsewhere the ratio is 1 (with = without = 1).
   {
-    const std::vector<char> matter = VirtualObjectsMatter(scene, world_tree, without_model, sg);
-    std::vector<size_t> index;
+    const std::vector<char> matter =
+        VirtualObjectsMatter(scene, world_tree, PlaneModel(scene, plane_point, trees(is_caster)), sg);
+    std::vector<int> pixels;
     std::vector<Eigen::Vector3d> points;
     for (size_t k = 0; k < plane_point.size(); ++k)
       if (matter[k]) {
-        index.push_back(k);
+        pixels.push_back(plane_pixel[k]);
         points.push_back(plane_point[k]);
       }
+    const std::vector<Eigen::Vector3f> without = RenderShadowPlane(PlaneModel(scene, points, trees(is_caster)), sg);
+    Report(progress, 0.4, "plane without objects");
     const std::vector<Eigen::Vector3f> with = RenderShadowPlane(PlaneModel(scene, points, trees(is_any)), sg);
-    for (size_t m = 0; m < index.size(); ++m) plane_with[index[m]] = with[m];
+    for (size_t m = 0; m < pixels.size(); ++m) {
+      with_local.set_rgb(pixels[m], with[m]);
+      without_local.set_rgb(pixels[m], without[m]);
+    }
   }
   Report(progress, 0.6, "plane with objects");
-  for (size_t k = 0; k < plane_pixel.size(); ++k) {
-    with_local.set_rgb(plane_pixel[k], plane_with[k]);
-    without_local.set_rgb(plane_pixel[k], plane_without[k]);
-  }
 
   // Caster pixels: their shading changes by the virtual objects' shadows.
   for (size_t c = 0; c < scene.objects.size(); ++c) {

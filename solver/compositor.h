@@ -22,7 +22,9 @@
 //   kPreview  closed-form SG shading (solver/shadow_plane.h, the `sg` model:
 //             exact cosine, capped occlusion) with sphere-tree visibility. Plane
 //             pixels: RenderShadowPlane with the casters' trees (without) and
-//             the casters' and virtual objects' trees (with). Surface points
+//             the casters' and virtual objects' trees (with), where the
+//             objects' bounding cones can change the shading (elsewhere the
+//             ratio is exactly 1). Surface points
 //             (virtual objects at n x n sub-pixel rays, casters at the pixel
 //             centre): the SG closed form with the point's own normal (Embree
 //             hit), visibility from the other objects' trees and the plane's

@@ -85,7 +85,6 @@ struct BenchReport {
   std::vector<BenchScene> scenes;
   std::vector<BenchRun> runs;
   int threads = 1;
-  bool full = false;    // sg-paper at 20000 steps ran
   bool quick = false;
   std::string load_before, load_after;  // /proc/loadavg at the start and the end
   double seconds = 0;                    // wall time of the whole bench

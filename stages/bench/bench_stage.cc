@@ -69,6 +69,12 @@ std::vector<BenchScene> PrepareScenes(const std::vector<fs::path>& dirs, const f
   std::vector<BenchScene> scenes;
   std::set<std::string> names;
   for (const fs::path& dir : dirs) {
+    // A bench folder inside a scene folder would be copied into every perturbed copy of it.
+    const fs::path scene_abs = fs::weakly_canonical(fs::absolute(dir));
+    const fs::path out_abs = fs::weakly_canonical(fs::absolute(out_dir));
+    if (std::mismatch(scene_abs.begin(), scene_abs.end(), out_abs.begin(), out_abs.end()).first == scene_abs.end())
+      throw InputError(out_dir.string(), "the bench folder is inside the scene folder " + dir.string() +
+                                             "; choose --out elsewhere");
     Scene scene = LoadScene(dir);
     if (!names.insert(scene.name).second)
       throw InputError(dir.string(), "two scenes are named '" + scene.name +
@@ -127,7 +133,6 @@ BenchSummary RunBench(const BenchOptions& o, const StageContext& ctx) {
 
   BenchReport report;
   report.threads = ctx.threads;
-  report.full = o.full;
   report.quick = o.quick;
   report.load_before = LoadAverage();
   report.stability = o.stability;
@@ -135,17 +140,21 @@ BenchSummary RunBench(const BenchOptions& o, const StageContext& ctx) {
 
   // Stability settings: given, or one reference setting per method of the grid.
   if (o.stability) {
-    std::vector<std::string> entries = o.stability_methods;
-    if (entries.empty()) {
-      std::set<std::string> seen;
-      for (const BenchSetting& s : grid)
-        if (seen.insert(s.method).second)
-          entries.push_back(s.method == "sg" && o.quick ? "sg:fast" : s.method);
-    }
-    for (const std::string& e : entries) {
+    for (const std::string& e : o.stability_methods) {
       const BenchSetting s = ParseBenchSetting(e);
       if (const std::string err = s.solve.Validate(); !err.empty()) throw InputError("--stability-methods", err);
       report.stability_settings.push_back(s);
+    }
+    if (o.stability_methods.empty()) {
+      // Per method of the grid: its reference setting (sg fast with --quick)
+      // when the grid has it, else the method's first setting in the grid.
+      std::set<std::string> seen;
+      for (const BenchSetting& s : grid) {
+        if (!seen.insert(s.method).second) continue;
+        const std::string ref = ParseBenchSetting(s.method == "sg" && o.quick ? "sg:fast" : s.method).Name();
+        const auto it = std::find_if(grid.begin(), grid.end(), [&](const BenchSetting& g) { return g.Name() == ref; });
+        report.stability_settings.push_back(it != grid.end() ? *it : s);
+      }
     }
     report.perturbations = StabilityPerturbations(o.quick, o.seeds);
   }

@@ -31,7 +31,9 @@ struct BenchOptions {
   // baselines 16 rows).
   std::vector<std::string> stability_methods;
   int seeds = 10;
-  std::string fail_below = "ss03";  // "ss03" (its clean PSNR per scene) or a PSNR in dB
+  // "ss03": a stability run fails below min(SS03's clean PSNR on the scene,
+  // its own clean PSNR - 3 dB) (tables.h FailThreshold); or a PSNR in dB.
+  std::string fail_below = "ss03";
   // The synth spec of the bundled sample (--quick without scenes).
   std::filesystem::path sample_spec;
 

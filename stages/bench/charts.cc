@@ -22,6 +22,8 @@ constexpr const char* kPngTerminal = "pngcairo size 960,640 font 'sans,11'";
 constexpr const char* kSvgTerminal = "svg size 960,640 font 'sans,11' background rgb 'white'";
 constexpr const char* kStabilityPng = "pngcairo size 1200,760 font 'sans,10'";
 constexpr const char* kStabilitySvg = "svg size 1200,760 font 'sans,10' background rgb 'white'";
+constexpr double kSamePointDb = 0.01;    // points closer than this (and at the same x) share a label
+constexpr double kPsnrAxisSpanDb = 25;   // the PSNR axis reaches at most this far below the best point
 
 // Marker (gnuplot point type) and colour per chart series.
 struct SeriesStyle {
@@ -142,15 +144,51 @@ std::vector<Series> ScatterSeries(const BenchReport& r, const BenchScene* scene,
     }
     it->points.push_back({sx / n, sy / n, setting->label});
   }
-  for (Series& s : out)
+  for (Series& s : out) {
     std::sort(s.points.begin(), s.points.end(), [](const Point& a, const Point& b) { return a.x < b.x; });
+    // Settings that land on one point (e.g. two budgets choosing the same
+    // model) share one label.
+    std::vector<Point> merged;
+    for (const Point& p : s.points)
+      if (!merged.empty() && merged.back().x == p.x && std::abs(merged.back().y - p.y) < kSamePointDb)
+        merged.back().label += ", " + p.label;
+      else
+        merged.push_back(p);
+    s.points = merged;
+  }
   return out;
 }
 
+// The PSNR axis: from a little below the worst point to above the best, but
+// at most kPsnrAxisSpanDb below the best; points further down are drawn on
+// the bottom edge with their value in the label (a diverged run must not
+// flatten every other point into one line).
+double ClampAxis(std::vector<Series>* series, std::vector<Point>* front) {
+  double lo = INFINITY, hi = -INFINITY;
+  for (const Series& s : *series)
+    for (const Point& p : s.points) {
+      lo = std::min(lo, p.y);
+      hi = std::max(hi, p.y);
+    }
+  const double floor_db = std::floor(std::max(lo, hi - kPsnrAxisSpanDb)) - 1;
+  char buf[64];
+  auto clamp = [&](Point& p) {
+    if (p.y >= floor_db) return;
+    std::snprintf(buf, sizeof buf, " (%.1f dB, off scale)", p.y);
+    p.label += buf;
+    p.y = floor_db;
+  };
+  for (Series& s : *series)
+    for (Point& p : s.points) clamp(p);
+  for (Point& p : *front) clamp(p);
+  return floor_db;
+}
+
 std::string ScatterBody(const std::vector<Series>& series, const std::string& data, const std::string& title,
-                        const std::string& xlabel, bool pareto) {
+                        const std::string& xlabel, bool pareto, double ymin) {
   std::ostringstream b;
   b << "set title " << Quote(title) << "\n"
+    << "set yrange [" << Num(ymin) << ":*]\n"
     << "set logscale x\nset format x '%g'\n"
     << "set xlabel " << Quote(xlabel) << "\nset ylabel 'PSNR (dB), shadow plane'\n"
     << "set grid xtics ytics mxtics lc rgb '#dddddd'\nset key outside right top\n"
@@ -167,7 +205,7 @@ std::string ScatterBody(const std::vector<Series>& series, const std::string& da
     b << ", \\\n     " << Quote(data) << " index " << series.size()
       << " using 1:2 with lines dt 2 lw 2 lc rgb '#444444' title 'Pareto front', \\\n     " << Quote(data)
       << " index " << series.size() << " using 1:2 with points pt 6 ps 2.6 lw 1.5 lc rgb '#444444' notitle";
-  b << "\nunset logscale x\nunset title\n";
+  b << "\nunset logscale x\nunset title\nset yrange [*:*]\n";
   return b.str();
 }
 
@@ -179,7 +217,7 @@ BenchChart ScatterChart(const BenchReport& r, const BenchScene* scene, const std
   const std::string xkey = time ? "solve_seconds" : "n_params";
   const std::string scene_name = scene ? scene->name : "mean over scenes";
   const std::string stem = (time ? "time_psnr_" : "params_psnr_") + (scene ? SafeStem(scene->name) : "mean");
-  const std::vector<Series> series = ScatterSeries(r, scene, xkey);
+  std::vector<Series> series = ScatterSeries(r, scene, xkey);
   if (series.empty()) return {};  // no successful run to draw
   std::vector<Point> front;
   if (time) {
@@ -193,13 +231,14 @@ BenchChart ScatterChart(const BenchReport& r, const BenchScene* scene, const std
       }
     for (size_t i : ParetoFront(xs, ys)) front.push_back({xs[i], ys[i], labels[i]});
   }
+  const double ymin = ClampAxis(&series, &front);
   const fs::path charts = bench_dir / "charts";
   WriteOrThrow(charts / (stem + ".dat"), DataText(series, front));
   const std::string title = (time ? "Solve time against accuracy: " : "Model size against accuracy: ") + scene_name;
   const std::string xlabel = time ? (scene ? "solve time (s, log scale)" : "mean solve time (s, log scale)")
                                   : "lighting parameters (log scale; SG: 6 per lobe, map: 3 per texel)";
   WriteOrThrow(charts / (stem + ".gp"),
-               Script(stem, ScatterBody(series, stem + ".dat", title, xlabel, time), kPngTerminal, kSvgTerminal));
+               Script(stem, ScatterBody(series, stem + ".dat", title, xlabel, time, ymin), kPngTerminal, kSvgTerminal));
   RunGnuplot(gnuplot, charts, stem);
   BenchChart c;
   c.name = stem;

@@ -121,8 +121,8 @@ std::vector<BenchSetting> MethodGrid(const std::vector<std::string>& entries, co
       add(ParseBenchSetting(entry));
     } else if (entry == "sg") {
       if (o.quick) {
-        for (const char* b : {"fast", "balanced"}) add(SgBudget(b));
-        for (int n : {1, 4}) add(SgLobes(n));
+        add(SgBudget("fast"));
+        for (int n : kSgQuickLobes) add(SgLobes(n));
       } else {
         for (const char* b : {"fast", "balanced", "best"}) add(SgBudget(b));
         for (int n : kSgLobeSweep) add(SgLobes(n));

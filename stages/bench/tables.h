@@ -66,6 +66,12 @@ struct StabilityCell {
 // All stability runs of `setting` under perturbations whose name matches
 // `name` (or whose family is "seed" when name == "seed").
 StabilityCell SummariseStability(const BenchReport& report, const BenchSetting& setting, const std::string& name);
+// A stability run fails when it errors or scores below its threshold: with
+// --fail-below ss03 (the default), the lower of SS03's clean PSNR on the scene
+// and the run's own clean PSNR minus kFailMarginDb (it lost more than 3 dB AND
+// ended below the plainest baseline with clean inputs); else the given dB.
+inline constexpr double kFailMarginDb = 3;
+std::optional<double> FailThreshold(const BenchReport& report, const StabilityRun& run);
 bool StabilityRunFailed(const BenchReport& report, const StabilityRun& run);
 
 // "ss03", "ss03+", "sh21" in upper case as in the paper; sg names unchanged.
