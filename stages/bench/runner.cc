@@ -44,14 +44,17 @@ BenchSetting SgBudget(const std::string& budget) {
   return s;
 }
 
-BenchSetting SgLobes(int lobes) {
+// Forced lobe counts at the balanced budget, or at `budget` (named in the
+// setting, so that runs of another budget are never reused for it).
+BenchSetting SgLobes(int lobes, const std::string& budget = "") {
   BenchSetting s;
   s.method = "sg";
-  s.setting = "lobes" + std::to_string(lobes);
-  s.label = std::to_string(lobes) + (lobes == 1 ? " lobe" : " lobes");
+  s.setting = "lobes" + std::to_string(lobes) + (budget.empty() ? "" : "-" + budget);
+  s.label = std::to_string(lobes) + (lobes == 1 ? " lobe" : " lobes") + (budget.empty() ? "" : " (" + budget + ")");
   s.series = "sg lobes";
   s.solve.method = "sg";
   s.solve.lobes = lobes;
+  if (!budget.empty()) s.solve.budget = budget;
   return s;
 }
 
@@ -122,14 +125,14 @@ std::vector<BenchSetting> MethodGrid(const std::vector<std::string>& entries, co
     } else if (entry == "sg") {
       if (o.quick) {
         add(SgBudget("fast"));
-        for (int n : kSgQuickLobes) add(SgLobes(n));
+        for (int n : kSgQuickLobes) add(SgLobes(n, "fast"));
       } else {
         for (const char* b : {"fast", "balanced", "best"}) add(SgBudget(b));
         for (int n : kSgLobeSweep) add(SgLobes(n));
       }
     } else if (entry == "sg-paper") {
       if (o.quick) {
-        add(PaperSteps(kPaperStepsDefault[0]));
+        add(PaperSteps(kPaperStepsQuick));
       } else {
         for (int n : kPaperStepsDefault) add(PaperSteps(n));
         if (o.full) add(PaperSteps(kPaperStepsFull));
