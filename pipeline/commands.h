@@ -20,6 +20,7 @@ void RegisterLinearizeCommand(CLI::App& app);
 void RegisterPoseCommand(CLI::App& app);
 void RegisterPlaneCommand(CLI::App& app);
 void RegisterRegisterCommand(CLI::App& app);
+void RegisterRunCommand(CLI::App& app);
 void RegisterBenchCommand(CLI::App& app);
 
 }  // namespace shadowsg

@@ -27,6 +27,7 @@ int main(int argc, char** argv) {
   RegisterPoseCommand(app);
   RegisterPlaneCommand(app);
   RegisterRegisterCommand(app);
+  RegisterRunCommand(app);
   RegisterBenchCommand(app);
 
   InstallInterruptHandlers();

@@ -41,21 +41,6 @@ std::string Fmt(const char* fmt, double v) {
   return buf;
 }
 
-// The photos COLMAP reads (FreeImage formats; linear EXRs are not photos).
-std::vector<std::string> ListPhotos(const fs::path& dir) {
-  std::error_code ec;
-  if (!fs::is_directory(dir, ec)) throw InputError(dir.string(), "photo folder not found");
-  std::vector<std::string> names;
-  for (const auto& e : fs::directory_iterator(dir, ec)) {
-    const std::string ext = Lower(e.path().extension().string());
-    if (e.is_regular_file(ec) &&
-        (ext == ".jpg" || ext == ".jpeg" || ext == ".png" || ext == ".tif" || ext == ".tiff" || ext == ".bmp"))
-      names.push_back(e.path().filename().string());
-  }
-  std::sort(names.begin(), names.end());
-  return names;
-}
-
 std::string NameList(std::vector<std::string> names) {
   std::sort(names.begin(), names.end());
   std::string s;
@@ -222,6 +207,20 @@ double Quantile(std::vector<double> v, double q) {
 }
 
 }  // namespace
+
+std::vector<std::string> ListPhotos(const fs::path& dir) {
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) throw InputError(dir.string(), "photo folder not found");
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    const std::string ext = Lower(e.path().extension().string());
+    if (e.is_regular_file(ec) &&
+        (ext == ".jpg" || ext == ".jpeg" || ext == ".png" || ext == ".tif" || ext == ".tiff" || ext == ".bmp"))
+      names.push_back(e.path().filename().string());
+  }
+  std::sort(names.begin(), names.end());
+  return names;
+}
 
 std::string PlaneStageOptions::Validate() const {
   if (colmap_model.empty() && images.empty()) return "--images: the photo folder is required (or --colmap-model)";

@@ -102,6 +102,10 @@ PlaneStageResult RunPlaneStage(const PlaneStageOptions& options, const StageCont
 // options.images only for the AprilTag scale). Writes nothing.
 PlaneStageResult RegisterPlane(const ColmapModel& model, const PlaneStageOptions& options, const StageContext& ctx);
 
+// The photos of a folder COLMAP reads (file names, sorted; .jpg .jpeg .png
+// .tif .tiff .bmp: FreeImage formats, linear EXRs are not photos).
+std::vector<std::string> ListPhotos(const std::filesystem::path& dir);
+
 // The model to use in a COLMAP output folder: `dir` itself when it holds
 // one, else the numbered sub-folder (0/, 1/, ...) with the most images.
 std::filesystem::path SelectColmapModel(const std::filesystem::path& dir);

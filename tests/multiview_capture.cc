@@ -3,12 +3,15 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <random>
 
 #include "calib/apriltag_detect.h"
 #include "solver/path_tracer.h"
 #include "solver/primitives.h"
 #include "stages/io/image_io.h"
+#include "stages/io/json_util.h"
+#include "stages/io/mesh_io.h"
 #include "stages/synth_stage.h"
 
 namespace shadowsg::testing {
@@ -220,6 +223,43 @@ void RenderCheckerboardSet(const Camera& lens, int cols, int rows, double square
     WriteLdr(dir / name, ToPhoto(img, 1.0));
     ++written;
   }
+}
+
+nlohmann::json WriteCaptureFolder(const MultiviewCapture& cap, const fs::path& dir, const CaptureFolderOptions& o) {
+  const MultiviewSpec& spec = cap.spec;
+  RenderCheckerboardSet(cap.lens, o.board_cols, o.board_rows, o.board_square, o.board_views, dir / "boards", 4, 100);
+  fs::create_directories(dir / "images");
+  for (size_t i = 0; i < cap.ring.size(); ++i) {
+    char name[32];
+    std::snprintf(name, sizeof name, "view_%02zu.png", i);
+    WriteLdr(dir / "images" / name, ToPhoto(RenderView(cap, cap.ring[i], 10 + i), cap.exposure));
+  }
+  const Image hero_linear = RenderView(cap, cap.hero_c2w, 1);
+  WriteExr(dir / "hero.exr", hero_linear);
+  WriteLdr(dir / "images" / "hero.png", ToPhoto(hero_linear, cap.exposure));
+  const SceneObject& box = cap.scene.objects[0];
+  TriangleMesh mesh = box.mesh;
+  for (auto& v : mesh.vertices) v = box.o2w.topLeftCorner<3, 3>() * v;
+  WriteObj(dir / "box.obj", mesh);
+
+  const std::string board = std::to_string(o.board_cols) + "x" + std::to_string(o.board_rows);
+  const nlohmann::json doc = {
+      {"format", "capture/1"},
+      {"intrinsics",
+       {{"images", "boards"},
+        {"board", board},
+        {"square", o.board_square},
+        {"fix_k3", true},
+        {"zero_tangential", true}}},
+      {"walkaround", {{"images", "images"}, {"max_features", o.max_features}}},
+      {"hero", {{"photo", "images/hero.png"}, {"linear", "hero.exr"}}},
+      {"object", {{"mesh", "box.obj"}}},
+      {"tags",
+       {{"size", spec.tag_size},
+        {"id", spec.tag_id},
+        {"offset", {-spec.tag_centre.x(), -spec.tag_centre.y(), spec.box_half.z()}}}}};
+  WriteJsonFile(dir / "capture.json", doc);
+  return doc;
 }
 
 double RotationAngleDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {

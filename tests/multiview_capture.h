@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -57,6 +58,25 @@ Image ToPhoto(const Image& linear, double exposure);
 // rendered through `lens` into dir/board_XX.png.
 void RenderCheckerboardSet(const Camera& lens, int cols, int rows, double square, int views,
                            const std::filesystem::path& dir, int spp, uint64_t seed);
+
+// The capture as a folder `shadowsg run` reads, and its capture.json:
+//   boards/board_XX.png   checkerboard photos (board_cols x board_rows inner corners)
+//   images/view_XX.png    the ring views, 8-bit
+//   images/hero.png       the hero view, 8-bit (COLMAP and the pose stage)
+//   hero.exr              the hero view, linear (the photo a camera raw would give)
+//   box.obj               the caster in the pose stage's object frame: its centre,
+//                         axes along the tag's (= the world's), so its mesh is the
+//                         box turned as it stands; the tag offset puts it there
+// capture.json sets "intrinsics", "walkaround", "hero", "object" and "tags";
+// the returned document is what was written (add "solve", "composite", ...
+// and write it again as needed).
+struct CaptureFolderOptions {
+  int board_cols = 8, board_rows = 5, board_views = 12;
+  double board_square = 0.03;
+  int max_features = 768;  // CPU matching is brute force: fewer features keep the pairs quick
+};
+nlohmann::json WriteCaptureFolder(const MultiviewCapture& capture, const std::filesystem::path& dir,
+                                  const CaptureFolderOptions& options = {});
 
 // Angle between the rotations of two c2w matrices, degrees.
 double RotationAngleDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b);

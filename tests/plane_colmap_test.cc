@@ -55,16 +55,13 @@ TEST(PlaneColmap, SyntheticCaptureRecoversPlaneAndHeroCamera) {
   // ---- Render the capture -------------------------------------------------
   const testing::MultiviewSpec spec;
   const testing::MultiviewCapture cap = testing::MakeMultiviewCapture(spec, kRingViews);
-  testing::RenderCheckerboardSet(cap.lens, kBoardCols, kBoardRows, kBoardSquare, kBoardViews, tmp / "boards", 4, 100);
-  fs::create_directories(tmp / "images");
-  for (int i = 0; i < kRingViews; ++i) {
-    char name[32];
-    std::snprintf(name, sizeof name, "view_%02d.png", i);
-    WriteLdr(tmp / "images" / name, testing::ToPhoto(testing::RenderView(cap, cap.ring[i], 10 + i), cap.exposure));
-  }
-  const Image hero_linear = testing::RenderView(cap, cap.hero_c2w, 1);
-  WriteExr(tmp / "hero.exr", hero_linear);
-  WriteLdr(tmp / "images" / "hero.png", testing::ToPhoto(hero_linear, cap.exposure));
+  testing::CaptureFolderOptions folder;
+  folder.board_cols = kBoardCols;
+  folder.board_rows = kBoardRows;
+  folder.board_views = kBoardViews;
+  folder.board_square = kBoardSquare;
+  folder.max_features = kMaxFeatures;
+  testing::WriteCaptureFolder(cap, tmp, folder);  // boards/, images/, hero.exr, box.obj
   const double render_seconds = total.Seconds();
 
   // ---- Intrinsics from the checkerboards ----------------------------------
@@ -133,12 +130,11 @@ TEST(PlaneColmap, SyntheticCaptureRecoversPlaneAndHeroCamera) {
   EXPECT_LT(height_rel, 0.01);
 
   // ---- Pose and register: the object lands where it is ----------------------
-  // The pose stage's object frame: the box's centre, axes along the tag's
-  // (= world axes); so its mesh is the box turned as it stands.
+  // box.obj is in the pose stage's object frame: the box's centre, axes along
+  // the tag's (= world axes); so its mesh is the box turned as it stands.
   const SceneObject& box = cap.scene.objects[0];
   TriangleMesh mesh = box.mesh;
-  for (auto& v : mesh.vertices) v = box.o2w.topLeftCorner<3, 3>() * v;
-  WriteObj(tmp / "box.obj", mesh);
+  for (auto& v : mesh.vertices) v = box.o2w.topLeftCorner<3, 3>() * v;  // as box.obj
   PoseStageOptions pose;
   pose.image = tmp / "images" / "hero.png";
   pose.camera = tmp / "camera.json";
