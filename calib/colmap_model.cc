@@ -81,6 +81,26 @@ void CheckParams(const ColmapCamera& c, const std::string& where) {
                                 std::to_string(c.params.size()));
 }
 
+// What a reader accepts beyond the layout: a camera with a sensible size and
+// finite parameters, a pose with a finite, non-zero quaternion, a finite point.
+constexpr uint64_t kMaxSide = 1 << 20;
+
+void CheckCamera(const ColmapCamera& c, const std::string& where) {
+  const std::string cam = "camera " + std::to_string(c.id) + ": ";
+  if (c.width < 1 || c.height < 1 || c.width > kMaxSide || c.height > kMaxSide)
+    throw InputError(where, cam + "image size " + std::to_string(c.width) + "x" + std::to_string(c.height) +
+                                " is not between 1 and 1048576");
+  for (double p : c.params)
+    if (!std::isfinite(p)) throw InputError(where, cam + "non-finite parameter");
+}
+
+void CheckPose(const ColmapImage& im, const std::string& where) {
+  const std::string what = "image " + std::to_string(im.id) + ": ";
+  if (!im.pose.qvec.allFinite() || !im.pose.tvec.allFinite())
+    throw InputError(where, what + "non-finite quaternion or translation");
+  if (im.pose.qvec.norm() < 1e-12) throw InputError(where, what + "zero quaternion");
+}
+
 }  // namespace
 
 int ColmapModelParamCount(const std::string& model) {
@@ -137,6 +157,7 @@ void ReadColmapCamerasBinary(std::istream& in, const std::string& name, ColmapMo
     c.height = ReadBinary<uint64_t>(in, name, "camera height");
     c.params.resize(ColmapModelParamCount(c.model));
     for (double& p : c.params) p = ReadBinary<double>(in, name, "camera parameters");
+    CheckCamera(c, name);
     model->cameras[c.id] = std::move(c);
   }
 }
@@ -149,6 +170,7 @@ void ReadColmapImagesBinary(std::istream& in, const std::string& name, ColmapMod
     for (int k = 0; k < 4; ++k) im.pose.qvec[k] = ReadBinary<double>(in, name, "qvec");
     for (int k = 0; k < 3; ++k) im.pose.tvec[k] = ReadBinary<double>(in, name, "tvec");
     im.camera_id = ReadBinary<uint32_t>(in, name, "camera id");
+    CheckPose(im, name);
     char ch;
     while ((ch = ReadBinary<char>(in, name, "image name")) != '\0') im.name += ch;
     const uint64_t np = ReadCount(in, name, "2D point count");
@@ -166,11 +188,13 @@ void ReadColmapImagesBinary(std::istream& in, const std::string& name, ColmapMod
 
 void ReadColmapPointsBinary(std::istream& in, const std::string& name, ColmapModel* model) {
   const uint64_t n = ReadCount(in, name, "point count");
-  model->points.reserve(model->points.size() + n);
+  // The count is not trusted for memory: a corrupt one fails at the file's end.
+  model->points.reserve(model->points.size() + std::min<uint64_t>(n, 1 << 20));
   for (uint64_t i = 0; i < n; ++i) {
     ColmapPoint3D p;
     p.id = ReadBinary<uint64_t>(in, name, "point id");
     for (int k = 0; k < 3; ++k) p.xyz[k] = ReadBinary<double>(in, name, "point xyz");
+    if (!p.xyz.allFinite()) throw InputError(name, "point " + std::to_string(p.id) + ": non-finite position");
     for (int k = 0; k < 3; ++k) p.rgb[k] = ReadBinary<uint8_t>(in, name, "point colour");
     p.error = ReadBinary<double>(in, name, "point error");
     const uint64_t nt = ReadCount(in, name, "track length");
@@ -237,12 +261,16 @@ void ReadColmapCamerasText(std::istream& in, const std::string& name, ColmapMode
   while (NextContentLine(in, &line, &line_no)) {
     std::istringstream ss(line);
     ColmapCamera c;
-    if (!(ss >> c.id >> c.model >> c.width >> c.height))
+    long long width = 0, height = 0;
+    if (!(ss >> c.id >> c.model >> width >> height))
       TextFail(name, line_no, "expected CAMERA_ID MODEL WIDTH HEIGHT PARAMS[]");
+    c.width = static_cast<uint64_t>(std::max(0LL, width));
+    c.height = static_cast<uint64_t>(std::max(0LL, height));
     double p;
     while (ss >> p) c.params.push_back(p);
     if (!ss.eof()) TextFail(name, line_no, "camera parameters must be numbers");
     CheckParams(c, name + ":" + std::to_string(line_no));
+    CheckCamera(c, name + ":" + std::to_string(line_no));
     model->cameras[c.id] = std::move(c);
   }
 }
@@ -261,6 +289,7 @@ void ReadColmapImagesText(std::istream& in, const std::string& name, ColmapModel
     std::getline(ss, rest);
     im.name = Trim(rest);
     if (im.name.empty()) TextFail(name, line_no, "image name missing");
+    CheckPose(im, name + ":" + std::to_string(line_no));
     // The next line holds the 2D points (X, Y, POINT3D_ID)*, possibly empty.
     std::string points;
     if (std::getline(in, points)) {
@@ -299,9 +328,16 @@ void ReadColmapPointsText(std::istream& in, const std::string& name, ColmapModel
       TextFail(name, line_no, "expected POINT3D_ID X Y Z R G B ERROR TRACK[]");
     if (r < 0 || r > 255 || g < 0 || g > 255 || b < 0 || b > 255) TextFail(name, line_no, "colour outside 0..255");
     p.rgb = {static_cast<uint8_t>(r), static_cast<uint8_t>(g), static_cast<uint8_t>(b)};
-    ColmapTrackElement e;
-    while (ss >> e.image_id >> e.point2D_idx) p.track.push_back(e);
-    if (!ss.eof()) TextFail(name, line_no, "expected pairs IMAGE_ID POINT2D_IDX");
+    if (!p.xyz.allFinite()) TextFail(name, line_no, "non-finite position");
+    std::vector<long long> ids;
+    long long v;
+    while (ss >> v) ids.push_back(v);
+    if (!ss.eof() || ids.size() % 2 != 0) TextFail(name, line_no, "expected pairs IMAGE_ID POINT2D_IDX");
+    for (size_t k = 0; k < ids.size(); k += 2) {
+      if (ids[k] < 0 || ids[k] > 0xFFFFFFFFLL || ids[k + 1] < 0 || ids[k + 1] > 0xFFFFFFFFLL)
+        TextFail(name, line_no, "track ids out of range");
+      p.track.push_back({static_cast<colmap_image_t>(ids[k]), static_cast<uint32_t>(ids[k + 1])});
+    }
     model->points.push_back(std::move(p));
   }
 }

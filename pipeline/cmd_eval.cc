@@ -20,6 +20,9 @@ void RegisterEvalCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--map-height", opt->eval.map_height, "Env maps: rows over the hemisphere for the transport")
       ->capture_default_str();
+  cmd->add_option("--visibility", opt->eval.visibility,
+                  "SG rendering: spheres (sphere-tree sigmoid) or exact (ray-cast mesh visibility)")
+      ->capture_default_str();
   AddCommonOptions(cmd, &opt->common);
   cmd->callback([opt] { RunEval(opt->scene_dir, opt->lighting, opt->out_dir, opt->eval, MakeContext(opt->common)); });
 }

@@ -24,6 +24,11 @@ void RegisterSolveCommand(CLI::App& app) {
   cmd->add_flag("--estimate-albedo", opt->solve.estimate_albedo, "sh21: estimate the plane albedo jointly");
   cmd->add_option("--ssdf", opt->solve.ssdf, "Occluder search: exact (branch and bound) or c2f (reference's top-3)")
       ->capture_default_str();
+  cmd->add_option("--visibility", opt->solve.visibility,
+                  "sg: spheres (sphere-tree sigmoid, fast) or exact (ray-cast mesh visibility, slower)")
+      ->capture_default_str();
+  cmd->add_flag("--score-exact", opt->solve.score_exact,
+                "sg, sg-paper: also score the estimate rendered with exact (ray-cast) visibility");
   AddCommonOptions(cmd, &opt->common);
   cmd->callback([opt] { RunSolve(opt->scene_dir, opt->out_dir, opt->solve, MakeContext(opt->common)); });
 }

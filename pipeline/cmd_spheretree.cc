@@ -41,7 +41,12 @@ void RegisterSphereTreeCommand(CLI::App& app) {
     if (!opt->build.IsValid(&why)) throw InputError("spheretree", why);
     const TriangleMesh mesh = ReadMesh(opt->mesh);
     SphereTreeBuildSummary s;
-    const SphereTree tree = BuildSphereTree(mesh, opt->build, ctx.Progress("sphere tree"), &s);
+    SphereTree tree;
+    try {
+      tree = BuildSphereTree(mesh, opt->build, ctx.Progress("sphere tree"), &s);
+    } catch (const InputError& e) {  // the mesh's problem: name its file
+      throw InputError(opt->mesh, e.what());
+    }
     WriteSph(opt->out, tree);
     std::printf("wrote %s: %d levels, branching %d, %d leaves in %zu slots; %.2f s on %d threads\n",
                 opt->out.c_str(), tree.levels, tree.branching, s.leaves, tree.nodes.size(), s.seconds, ctx.threads);

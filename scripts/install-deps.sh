@@ -6,7 +6,8 @@ PKGS=(cmake ninja-build g++ pkg-config ccache
       libeigen3-dev libopencv-dev libembree-dev libopenexr-dev libimath-dev libceres-dev
       nlohmann-json3-dev libcli11-dev libtinyobjloader-dev libraw-dev libapriltag-dev
       libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox colmap
-      opencv-doc)
+      opencv-doc
+      clang libclang-rt-14-dev)  # libFuzzer (scripts/fuzz.sh)
 missing=()
 for p in "${PKGS[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

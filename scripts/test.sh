@@ -1,11 +1,17 @@
 #!/usr/bin/env bash
 # One command on a fresh Debian machine: install dependencies, build, run the
 # whole test suite, then build and run it again under AddressSanitizer and
-# UndefinedBehaviorSanitizer (skip that with --no-sanitize).
+# UndefinedBehaviorSanitizer (skip that with --no-sanitize), then fuzz every
+# parser for a bounded time (FUZZ_SECONDS per target, default 30; --no-fuzz
+# skips it).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 sanitize=1
-[ "${1:-}" = "--no-sanitize" ] && sanitize=0
+fuzz=1
+for a in "$@"; do
+  [ "$a" = "--no-sanitize" ] && sanitize=0
+  [ "$a" = "--no-fuzz" ] && fuzz=0
+done
 bash scripts/install-deps.sh
 bash scripts/build.sh build
 (cd build && ctest --output-on-failure -j 2 --timeout 900)
@@ -20,4 +26,9 @@ if [ "$sanitize" = 1 ]; then
   # the Release pass; under the sanitizers they would take most of CI's hour.
   (cd build-asan && ASAN_OPTIONS=detect_leaks=0 UBSAN_OPTIONS=print_stacktrace=1 \
      ctest --output-on-failure -j 2 --timeout 1800 -LE "slow|colmap")
+fi
+if [ "$fuzz" = 1 ]; then
+  # libFuzzer (clang, ASan + UBSan) on each parser: 10 targets x 30 s, plus
+  # a build of the readers alone (about 2 min on 2 cores).
+  bash scripts/fuzz.sh "${FUZZ_SECONDS:-30}"
 fi

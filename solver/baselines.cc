@@ -398,6 +398,11 @@ BaselineResult SolveBaseline(const Scene& scene, const PlanePixels& pixels, cons
     result.render[i] = (gain[i] * transport.AlbedoOverPi(i).cwiseProduct(e[group[i]])).cast<float>();
   if (options.estimate_albedo) result.albedo_gain.assign(gain.begin(), gain.end());
   result.envmap = transport.map().ToEnvMap(radiance);
+  // Last guard (issue #10): a map with a non-finite texel is no lighting.
+  for (float& v : result.envmap.data)
+    if (!std::isfinite(v)) v = 0, ++result.invalid_texels;
+  for (auto& r : result.render)
+    if (!r.allFinite()) r.setZero();
   result.solve_seconds = seconds_since(start);
   Report(progress, 1.0, BaselineMethodName(options.method));
   return result;

@@ -91,6 +91,7 @@ struct BaselineResult {
   int rank = 0;                          // SS03: numerical rank of A
   int nnls_dependent = 0;                // SS03+: variables held at 0 as dependent (all channels)
   bool converged = true;                 // SS03+: every channel's NNLS converged
+  int invalid_texels = 0;                // non-finite texel values set to 0 by the last guard
 };
 
 // Throws InputError for invalid options, no plane pixels, or a plane albedo

@@ -16,6 +16,18 @@ Eigen::Vector3d EvalSg(const SgLighting& lighting, const Eigen::Vector3d& dir) {
   return sum;
 }
 
+int RemoveInvalidLobes(SgLighting* lighting) {
+  const size_t before = lighting->lobes.size();
+  std::erase_if(lighting->lobes, [](const SgLobe& l) {
+    const double n = l.axis.norm();
+    return !(std::isfinite(n) && n > 1e-12) || !(std::isfinite(l.sharpness) && l.sharpness > 0) ||
+           !l.amplitude.allFinite() || (l.amplitude.array() < 0).any() || !(l.amplitude.maxCoeff() > 0);
+  });
+  for (SgLobe& l : lighting->lobes) l.axis.normalize();
+  if (!lighting->up.allFinite() || !(lighting->up.norm() > 1e-12)) lighting->up = Eigen::Vector3d::UnitZ();
+  return static_cast<int>(before - lighting->lobes.size());
+}
+
 Eigen::Vector3d SgIntegral(const SgLobe& lobe) {
   return 2 * M_PI * lobe.amplitude * (1 - std::exp(-2 * lobe.sharpness)) / lobe.sharpness;
 }

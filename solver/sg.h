@@ -25,6 +25,11 @@ Eigen::Vector3d EvalSg(const SgLobe& lobe, const Eigen::Vector3d& dir);
 Eigen::Vector3d EvalSg(const SgLighting& lighting, const Eigen::Vector3d& dir);
 // Full-sphere integral of a lobe: 2 pi a (1 - exp(-2 lambda)) / lambda.
 Eigen::Vector3d SgIntegral(const SgLobe& lobe);
+// The solvers' last guard (issue #10): drops lobes that are not lighting
+// (non-finite or zero axis, sharpness not finite and positive, amplitude not
+// finite and non-negative, or all zero) and normalises the axes. Returns how
+// many were dropped; what is left renders finite values.
+int RemoveInvalidLobes(SgLighting* lighting);
 // The lighting as an H x 2H equirectangular map (texel-centre values).
 Image SgToEnvMap(const SgLighting& lighting, int height);
 

@@ -96,7 +96,11 @@ SgLighting SolveSgPaper(const ShadowPlaneModel& model, const std::vector<Eigen::
     for (size_t i = 0; i < n; ++i) {
       const Eigen::Vector3d mu = p.v[i].normalized();
       const Eigen::Vector3d dmu = grad.row(i).segment<3>(0).transpose();
-      const Eigen::Vector3d dv = (Eigen::Matrix3d::Identity() - mu * mu.transpose()) * dmu / p.v[i].norm();
+      const double vnorm = p.v[i].norm();
+      // A collapsed or non-finite axis parameter has no gradient direction: leave it (the last guard drops it).
+      const Eigen::Vector3d dv = vnorm > 1e-12 && std::isfinite(vnorm)
+                                     ? Eigen::Vector3d((Eigen::Matrix3d::Identity() - mu * mu.transpose()) * dmu / vnorm)
+                                     : Eigen::Vector3d::Zero();
       const double lambda = std::exp(-p.s[i]);
       const double ds = -lambda * grad(i, 3);
       Eigen::Vector3d db;
@@ -153,6 +157,7 @@ SgLighting SolveSgPaper(const ShadowPlaneModel& model, const std::vector<Eigen::
     // Lobes below the plane contribute nothing in the model: drop them.
     std::erase_if(result.lobes, [&](const SgLobe& l) { return l.axis.dot(model.normal) <= 0; });
   }
+  local.invalid_lobes_removed = RemoveInvalidLobes(&result);
   local.lobes_kept = static_cast<int>(result.lobes.size());
   local.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (summary) *summary = local;

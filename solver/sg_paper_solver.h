@@ -37,6 +37,7 @@ struct SgSolveSummary {
   double final_loss = 0;
   int lobes_initial = 0;
   int lobes_kept = 0;
+  int invalid_lobes_removed = 0;  // non-finite lobes dropped by the last guard
   double seconds = 0;
   std::vector<std::pair<int, double>> loss_history;  // (step, batch loss)
 };

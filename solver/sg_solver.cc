@@ -140,6 +140,11 @@ struct Atom {
 // Column of an atom: shading per unit amplitude and unit albedo/pi.
 void AtomColumn(const ShadowPlaneModel& model, const Eigen::MatrixXf& theta, const Atom& atom,
                 const Eigen::Vector3d& axis, float* out) {
+  if (model.exact) {  // --visibility exact: the mesh's occluded cells (theta unused)
+    for (size_t r = 0; r < model.points.size(); ++r)
+      out[r] = static_cast<float>(model.exact->Shade(model.exact_table->View(r), axis, atom.lambda, false).value);
+    return;
+  }
   const ProductLobe p = EvalProductLobe(axis, atom.lambda, model.normal, model.cosine);
   for (long r = 0; r < theta.rows(); ++r)
     out[r] = static_cast<float>(
@@ -181,21 +186,26 @@ class RefineCost final : public ceres::CostFunction {
     std::vector<Eigen::Vector3f> witness;
     std::vector<float> caps;
     for (const ProductLobe& p : products) caps.push_back(VisibilityCap(p));
-    PlaneAngles(model_, axes, caps, &theta, &witness);
+    if (!model_.exact) PlaneAngles(model_, axes, caps, &theta, &witness);
     const long np = static_cast<long>(model_.points.size());
 #pragma omp parallel for schedule(static)
     for (long k = 0; k < np; ++k) {
       const Eigen::Vector3d rho = model_.albedo[k].cast<double>() / M_PI * sqrt_w_[k];
       Eigen::Vector3d sum = Eigen::Vector3d::Zero();
       for (int j = 0; j < lobes_; ++j) {
-        const Eigen::Vector3d u = witness[k * lobes_ + j].cast<double>();
-        Eigen::Vector3d dtheta = Eigen::Vector3d::Zero();
-        if (jacobians && !u.isZero()) {
-          const double c = std::clamp(u.dot(axes[j]), -1.0, 1.0);
-          dtheta = -u / std::max(std::sqrt(1 - c * c), 1e-9);
-        }
-        const LobeShading s = ShadeLobe(products[j], theta(k, j), dtheta,
-                                        model_.cap_occlusion ? model_.occluder_cos[k] : kNoOcclusionCap);
+        auto sphere_shade = [&] {
+          const Eigen::Vector3d u = witness[k * lobes_ + j].cast<double>();
+          Eigen::Vector3d dtheta = Eigen::Vector3d::Zero();
+          if (jacobians && !u.isZero()) {
+            const double c = std::clamp(u.dot(axes[j]), -1.0, 1.0);
+            dtheta = -u / std::max(std::sqrt(1 - c * c), 1e-9);
+          }
+          return ShadeLobe(products[j], theta(k, j), dtheta,
+                           model_.cap_occlusion ? model_.occluder_cos[k] : kNoOcclusionCap);
+        };
+        const LobeShading s =
+            model_.exact ? model_.exact->Shade(model_.exact_table->View(k), axes[j], lambda[j], jacobians != nullptr)
+                         : sphere_shade();
         sum += s.value * amp[j];
         if (!jacobians) continue;
         for (int c = 0; c < 3; ++c) {
@@ -255,7 +265,8 @@ ShadowPlaneModel Subset(const ShadowPlaneModel& model, const std::vector<size_t>
   sub.points = Gather(model.points, idx);
   sub.albedo = Gather(model.albedo, idx);
   if (!model.occluder_cos.empty()) sub.occluder_cos = Gather(model.occluder_cos, idx);
-  sub.PrepareCones();
+  if (model.exact) sub.PrepareExactTable();  // the fit shades with these, not the cones
+  else sub.PrepareCones();
   return sub;
 }
 
@@ -324,6 +335,8 @@ std::vector<SgLobe> MergeLobes(std::vector<SgLobe> lobes, double overlap) {
       power += p;
       power_rgb += SgIntegral(l);
     }
+    // Lobes without power (or with a non-finite one) carry no direction.
+    if (!(power > 0 && std::isfinite(power) && moment.norm() > 0)) continue;
     SgLobe m;
     m.axis = moment.normalized();
     m.sharpness = SharpnessFromResultant(moment.norm() / power);
@@ -408,7 +421,7 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   const ShadowPlaneModel fit_model = Subset(model, sets.fit);
   const ShadowPlaneModel hold_model = Subset(model, sets.holdout);
   Eigen::MatrixXf theta_fit;
-  fit_model.cones.Angles(axes, &theta_fit, nullptr);
+  if (!model.exact) fit_model.cones.Angles(axes, &theta_fit, nullptr);
   sum.theta_seconds = Since(t0);
   Report(progress, 0.15, "theta done");
 
@@ -547,6 +560,7 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
                                       &lighting, &progress);
   sum.refine_seconds = Since(t0);
   sum.fit_mse_refined = WeightedMse(fit_model, lighting, sets.weight, Gather(targets, sets.fit));
+  sum.invalid_lobes_removed = RemoveInvalidLobes(&lighting);
   sum.lobes_kept = static_cast<int>(lighting.lobes.size());
   sum.seconds = Since(start);
   Report(progress, 1.0, std::to_string(sum.lobes_kept) + " lobes");

@@ -64,6 +64,7 @@ struct SgSolverSummary {
   double fit_mse_selected = 0;      // weighted fit MSE before refinement
   double fit_mse_refined = 0;       // and after
   int refine_iterations = 0;
+  int invalid_lobes_removed = 0;    // non-finite lobes dropped by the last guard (0 unless a bug or a degenerate fit)
   double theta_seconds = 0, select_seconds = 0, refine_seconds = 0, seconds = 0;
 };
 

@@ -80,6 +80,9 @@ ShadowPlaneModel MakeShadowPlaneModel(const Scene& scene, const PlanePixels& pix
 }
 
 std::vector<Eigen::Vector3f> RenderShadowPlane(const ShadowPlaneModel& model, const SgLighting& lighting) {
+  if (model.exact)
+    return model.exact->Render(model.points, model.albedo, lighting, model.upper_hemisphere_only,
+                               model.HasExactTable() ? model.exact_table.get() : nullptr);
   std::vector<Eigen::Vector3d> axes;
   const std::vector<size_t> active = ActiveLobes(model, lighting, &axes);
   std::vector<ProductLobe> products;

@@ -5,8 +5,10 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <memory>
 #include <vector>
 
+#include "solver/exact_visibility.h"
 #include "solver/plane_pixels.h"
 #include "solver/scene.h"
 #include "solver/sg.h"
@@ -33,8 +35,17 @@ struct ShadowPlaneModel {
   // same points then skip the per-point table set-up.
   OccluderCones cones;
 
+  // `--visibility exact` (solver/exact_visibility.h): when set, the `sg`
+  // solver and RenderShadowPlane shade with the casters' real meshes (ray
+  // cast) instead of the sphere trees' sigmoid; exact_table, when it holds
+  // `points`, saves re-casting their rays.
+  std::shared_ptr<const ExactVisibility> exact;
+  std::shared_ptr<const OccludedTable> exact_table;
+
   bool HasCones() const { return cones.size() == points.size() && !points.empty(); }
   void PrepareCones() { cones = OccluderCones(occluders, points, search); }
+  bool HasExactTable() const { return exact && exact_table && exact_table->size() == points.size(); }
+  void PrepareExactTable() { exact_table = std::make_shared<const OccludedTable>(exact->Tabulate(points)); }
 };
 
 // theta (and witness directions, when non-null) of every point of the model for

@@ -7,6 +7,8 @@
 #include <limits>
 #include <unordered_set>
 
+#include <Eigen/Eigenvalues>
+
 #include "calib/error.h"
 #include "solver/enclosing_sphere.h"
 #include "solver/medial_spheres.h"
@@ -350,6 +352,18 @@ SphereTree BuildSphereTree(const TriangleMesh& mesh, const SphereTreeBuildOption
   options.Check();
   CheckMeshIndices(mesh, "sphere tree");
   if (!(MeshArea(mesh) > 0)) throw InputError("sphere tree", "mesh has zero surface area");
+  {
+    // Spheres fill a volume: a flat mesh (a card, a single sheet) has none.
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (const auto& v : mesh.vertices) mean += v;
+    mean /= static_cast<double>(mesh.vertices.size());
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    for (const auto& v : mesh.vertices) cov += (v - mean) * (v - mean).transpose();
+    const Eigen::Vector3d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov, Eigen::EigenvaluesOnly).eigenvalues();
+    if (!(ev[0] > 1e-12 * ev[2]))
+      throw InputError("sphere tree", "the mesh is flat (all vertices on one plane): it encloses no volume to fill "
+                                      "with spheres; give the object some thickness");
+  }
   SphereTreeBuildSummary sum;
   sum.boundary_edges = CountBoundaryEdges(mesh);
   sum.inverted = MeshVolume(mesh) < 0;

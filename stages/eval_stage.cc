@@ -4,6 +4,7 @@
 
 #include "calib/error.h"
 #include "solver/envmap.h"
+#include "solver/exact_visibility.h"
 #include "solver/light_transport.h"
 #include "solver/plane_pixels.h"
 #include "solver/shadow_plane.h"
@@ -19,6 +20,7 @@ namespace fs = std::filesystem;
 std::string EvalOptions::Validate() const {
   if (sg_model != "sg" && sg_model != "paper") return "--sg-model: expected sg or paper";
   if (map_height < 1 || map_height > 32) return "--map-height: expected 1 to 32 rows";
+  if (visibility != "spheres" && visibility != "exact") return "--visibility: expected spheres or exact";
   return "";
 }
 
@@ -40,8 +42,9 @@ void RunEval(const fs::path& scene_dir, const fs::path& lighting_file, const fs:
   est.plane_render.assign(pixels.size(), Eigen::Vector3f::Zero());
   Stopwatch render_clock;
   if (lights.sg) {
-    const ShadowPlaneModel model = PrepareShadowPlane(
+    ShadowPlaneModel model = PrepareShadowPlane(
         scene, scene_dir, pixels, o.sg_model == "sg" ? ShadingModel::kSg : ShadingModel::kPaper, ctx);
+    if (o.visibility == "exact") model.exact = MakeExactVisibility(scene);  // cosine exact, mesh visibility
     est.sg = lights.sg;
     CompleteSgEstimate(model, &est);
   }
@@ -56,7 +59,7 @@ void RunEval(const fs::path& scene_dir, const fs::path& lighting_file, const fs:
   }
   est.solve_seconds = 0;
   est.extra = Json{{"lighting", lighting_file.string()}, {"render_seconds", render_clock.Seconds()},
-                   {"sg_model", o.sg_model}, {"map_rows", o.map_height}};
+                   {"sg_model", o.sg_model}, {"visibility", o.visibility}, {"map_rows", o.map_height}};
   if (scene.image_virtual_objs) EnsureCompositeTrees(scene, scene_dir, ctx);  // for the insertion scores
   const Json m = ScoreAndWrite(scene, pixels, est, out_dir, clock, ctx);
   char line[200];

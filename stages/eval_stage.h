@@ -13,6 +13,7 @@ struct EvalOptions {
   // How SG lighting is rendered: "sg" (exact cosine, capped occlusion: the
   // model `--method sg` fits) or "paper" (the paper's cosine SG and sigmoid).
   std::string sg_model = "sg";
+  std::string visibility = "spheres";  // SG: spheres (the model's sigmoid) | exact (ray-cast mesh)
   // Env maps are rendered through the baselines' light transport (ray-cast
   // mesh visibility) at this many rows over the hemisphere.
   int map_height = 16;

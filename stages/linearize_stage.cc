@@ -103,6 +103,7 @@ LinearizeStageResult RunLinearizeStage(const LinearizeStageOptions& o, const Sta
   const std::string bad = o.Validate();
   if (!bad.empty()) throw InputError("linearize", bad);
   const InputKind kind = KindOf(o.inputs[0]);
+  std::string guess_warning;  // shown once the image is known to be usable
   for (const auto& in : o.inputs) {
     if (KindOf(in) != kind)
       throw InputError(in.string(), "inputs mix kinds: give only raws, only 8-bit JPEG/PNG, or one EXR");
@@ -173,9 +174,9 @@ LinearizeStageResult RunLinearizeStage(const LinearizeStageOptions& o, const Sta
     report["colour_space"] = "linear sRGB (8-bit input)";
     if (images.size() == 1) {
       result.kind = "8-bit sRGB";
-      ctx.Warn(o.inputs[0].string() +
-               ": 8-bit input: the camera's tone curve is unknown, the inverse sRGB curve is a guess "
-               "(shoot raw, or an exposure stack for a recovered response)");
+      guess_warning = o.inputs[0].string() +
+                      ": 8-bit input: the camera's tone curve is unknown, the inverse sRGB curve is a guess "
+                      "(shoot raw, or an exposure stack for a recovered response)";
       hdr = LinearizeSrgb(images[0]);
       report["response"] = "inverse sRGB (assumed)";
     } else {
@@ -195,6 +196,22 @@ LinearizeStageResult RunLinearizeStage(const LinearizeStageOptions& o, const Sta
     hdr.clipped = Image(hdr.radiance.width, hdr.radiance.height, 1);
     report["colour_space"] = "as the input";
   }
+
+  // A frame with nothing usable is bad input, not an image to pass on.
+  {
+    const std::string first = o.inputs[0].string();
+    size_t saturated = 0, black = 0;
+    for (float v : hdr.clipped.data) saturated += v == kMaskSaturated, black += v == kMaskUnderexposed;
+    const size_t n = hdr.clipped.pixels();
+    float hi = 0;
+    for (float v : hdr.radiance.data) {
+      if (!std::isfinite(v)) throw InputError(first, "image has non-finite pixels");
+      hi = std::max(hi, v);
+    }
+    if (n > 0 && saturated == n) throw InputError(first, "every pixel is saturated (over-exposed): no usable pixel");
+    if (hi <= 0 || (n > 0 && black == n)) throw InputError(first, "image is black (under-exposed): no usable pixel");
+  }
+  if (!guess_warning.empty()) ctx.Warn(guess_warning);
 
   if (!o.undistort.empty()) {
     Report(progress, (steps - 0.5) / steps, "undistorting");

@@ -162,6 +162,9 @@ RegisterStageResult RunRegisterStage(const RegisterStageOptions& o, const StageC
   if (pf.xyz.norm() > 1e-9 || (pf.normal - Eigen::Vector3d::UnitZ()).norm() > 1e-6)
     throw InputError(o.plane.string(), "plane must be at xyz [0, 0, 0] with normal [0, 0, 1] (the registered frame)");
   const PoseFile pose = ReadPoseFile(o.pose);
+  if (!(pose.o2c(2, 3) > 0))
+    throw InputError(o.pose.string(), "o2c: the object is not in front of the camera (its origin is at camera z = " +
+                                          Fmt("%.4g", pose.o2c(2, 3)) + ")");
   const TriangleMesh mesh = ReadMesh(o.mesh);
   if (mesh.vertices.empty()) throw InputError(o.mesh.string(), "mesh has no vertices");
   Image image = ReadImage(o.image);
@@ -176,8 +179,7 @@ RegisterStageResult RunRegisterStage(const RegisterStageOptions& o, const StageC
     for (size_t p = 0; p < rgb.pixels(); ++p) rgb.set_rgb(p, image.rgb(p));
     image = std::move(rgb);
   }
-  for (float v : image.data)
-    if (!std::isfinite(v)) throw InputError(o.image.string(), "image has non-finite pixels");
+  CheckObservation(image, o.image);
 
   Camera cam;
   std::string camera_name;

@@ -1,9 +1,13 @@
 #include "stages/solve_stage.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 
 #include "calib/error.h"
 #include "solver/baselines.h"
+#include "solver/exact_visibility.h"
+#include "solver/metrics.h"
 #include "solver/plane_pixels.h"
 #include "solver/sg_paper_solver.h"
 #include "solver/sg_solver.h"
@@ -25,10 +29,46 @@ std::string SolveOptions::Validate() const {
     return "--budget: expected fast, balanced, best or paper";
   if (map_height < 2 || map_height > 256) return "--map-height: expected 2 to 256 rows";
   if (ssdf != "exact" && ssdf != "c2f") return "--ssdf: expected exact or c2f";
+  if (visibility != "spheres" && visibility != "exact") return "--visibility: expected spheres or exact";
+  if (visibility == "exact" && method != "sg") return "--visibility exact: only with --method sg";
   return "";
 }
 
 namespace {
+
+// Which share of the sky (cosine-weighted, over the plane's hemisphere) the
+// observation says anything about the direction of: a direction tells only
+// when it shadows some of the visible plane pixels and not others. Light from
+// elsewhere is known in total only (any mix of such directions renders the
+// same image). 1024 directions x at most 512 plane pixels.
+double InformativeSkyShare(const Scene& scene, const PlanePixels& pixels, const RayCaster& casters) {
+  const Eigen::Vector3d n = scene.plane.normal.normalized();
+  const Eigen::Vector3d t = (std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY()).cross(n).normalized();
+  const Eigen::Vector3d b = n.cross(t);
+  constexpr int kDirs = 1024;
+  std::vector<Eigen::Vector3d> dirs;
+  std::vector<double> weight;
+  const double golden = M_PI * (3 - std::sqrt(5.0));
+  for (int i = 0; i < kDirs; ++i) {  // Fibonacci points, uniform in solid angle over the hemisphere
+    const double z = 1 - (i + 0.5) / kDirs, r = std::sqrt(std::max(0.0, 1 - z * z)), phi = golden * i;
+    dirs.push_back(r * std::cos(phi) * t + r * std::sin(phi) * b + z * n);
+    weight.push_back(z);
+  }
+  const size_t stride = std::max<size_t>(1, pixels.size() / 512);
+  std::vector<int> shadowed(kDirs, 0);
+  int sampled = 0;
+  std::vector<char> visible;
+  for (size_t i = 0; i < pixels.size(); i += stride, ++sampled) {
+    casters.Visible(pixels.point[i], dirs, 1e-6, &visible);
+    for (int d = 0; d < kDirs; ++d) shadowed[d] += !visible[d];
+  }
+  double informative = 0, total = 0;
+  for (int d = 0; d < kDirs; ++d) {
+    total += weight[d];
+    if (shadowed[d] > 0 && shadowed[d] < sampled) informative += weight[d];
+  }
+  return total > 0 ? informative / total : 0;
+}
 
 std::vector<Eigen::Vector3f> Targets(const Scene& scene, const PlanePixels& pixels) {
   std::vector<Eigen::Vector3f> t;
@@ -57,6 +97,7 @@ LightingEstimate SolveWithSgPaper(Scene& scene, const fs::path& scene_dir, const
   est.extra = Json{{"steps", summary.iterations},
                    {"final_batch_loss", summary.final_loss},
                    {"lobes_initial", summary.lobes_initial},
+                   {"invalid_lobes_removed", summary.invalid_lobes_removed},
                    {"ssdf", o.ssdf}};
   return est;
 }
@@ -65,6 +106,8 @@ LightingEstimate SolveWithSg(Scene& scene, const fs::path& scene_dir, const Plan
                              const SolveOptions& o, const StageContext& ctx) {
   ShadowPlaneModel model = PrepareShadowPlane(scene, scene_dir, pixels, ShadingModel::kSg, ctx);
   model.search = o.ssdf == "c2f" ? SsdfSearch::kCoarseToFine : SsdfSearch::kExact;
+  // --visibility exact: fit and re-render with the meshes' ray-cast visibility.
+  if (o.visibility == "exact") model.exact = MakeExactVisibility(scene);
   SgSolverOptions so = SgSolverOptions::Budget(o.budget);
   so.lobes = o.lobes;
   so.seed = ctx.seed;
@@ -76,12 +119,16 @@ LightingEstimate SolveWithSg(Scene& scene, const fs::path& scene_dir, const Plan
   est.method = o.method;
   est.sg = SolveSg(model, Targets(scene, pixels), so, &summary, ctx.Progress("sg"));
   est.solve_seconds = solve_clock.Seconds();
+  Stopwatch render_clock;
   CompleteSgEstimate(model, &est);
   est.extra = Json{{"budget", o.budget},
+                   {"visibility", o.visibility},
+                   {"render_seconds", render_clock.Seconds()},
                    {"heldout_mse_path", summary.heldout_mse},
                    {"fit_mse_selected", summary.fit_mse_selected},
                    {"fit_mse_refined", summary.fit_mse_refined},
                    {"refine_iterations", summary.refine_iterations},
+                   {"invalid_lobes_removed", summary.invalid_lobes_removed},
                    {"theta_seconds", summary.theta_seconds},
                    {"select_seconds", summary.select_seconds},
                    {"refine_seconds", summary.refine_seconds},
@@ -107,7 +154,7 @@ LightingEstimate SolveWithBaseline(const Scene& scene, const PlanePixels& pixels
   est.plane_render = r.render;
   est.n_params = r.n_params;
   est.solve_seconds = r.solve_seconds;
-  est.extra = Json{{"map_rows", o.map_height}, {"albedo_scale", r.albedo_scale}};
+  est.extra = Json{{"map_rows", o.map_height}, {"albedo_scale", r.albedo_scale}, {"invalid_texels", r.invalid_texels}};
   return est;
 }
 
@@ -116,7 +163,9 @@ LightingEstimate SolveWithBaseline(const Scene& scene, const PlanePixels& pixels
 void RunSolve(const fs::path& scene_dir, const fs::path& out_dir, const SolveOptions& o, const StageContext& ctx) {
   Stopwatch clock;
   if (const std::string e = o.Validate(); !e.empty()) throw InputError("", e);
-  Scene scene = LoadScene(scene_dir);
+  SceneLoadOptions load;
+  load.require_observation = true;  // a black or saturated photo holds no shadow to solve from
+  Scene scene = LoadScene(scene_dir, load);
   const RayCaster casters = BuildRayCaster(scene.Casters());
   const PlanePixels pixels = FindPlanePixels(scene, casters);
   if (pixels.size() == 0)
@@ -124,10 +173,35 @@ void RunSolve(const fs::path& scene_dir, const fs::path& out_dir, const SolveOpt
                      "no shadow-plane pixels: the camera does not see the plane rectangle (or the mask excludes it)");
   ctx.Log("solve: " + scene.name + ", " + std::to_string(pixels.size()) + " plane pixels, method " + o.method +
           ", " + std::to_string(ctx.threads) + " threads");
+  const double informative = InformativeSkyShare(scene, pixels, casters);
+  if (informative == 0)
+    ctx.Warn("no visible plane pixel is in the object's shadow from any direction: the image fixes the total light, "
+             "not where it comes from (the estimate is one of many that render the same)");
+  else if (informative < 0.25)
+    ctx.Warn("the visible shadow constrains only " + std::to_string(static_cast<int>(std::lround(100 * informative))) +
+             " % of the sky (cosine-weighted): light from the rest is known in total only");
   LightingEstimate est;
   if (o.method == "sg-paper") est = SolveWithSgPaper(scene, scene_dir, pixels, o, ctx);
   else if (o.method == "sg") est = SolveWithSg(scene, scene_dir, pixels, o, ctx);
   else est = SolveWithBaseline(scene, pixels, casters, o, ctx);
+  // The solvers' last guard dropped what was not lighting; say so.
+  if (const int bad = est.extra.value("invalid_lobes_removed", 0); bad > 0)
+    ctx.Warn(o.method + ": " + std::to_string(bad) + " lobes with non-finite values were dropped from the estimate");
+  if (const int bad = est.extra.value("invalid_texels", 0); bad > 0)
+    ctx.Warn(o.method + ": " + std::to_string(bad) + " non-finite env-map values were set to 0");
+  est.extra["informative_sky_share"] = informative;
+  if (o.score_exact && est.sg) {
+    // The same lighting rendered with the meshes' exact visibility: compares
+    // --visibility modes (and methods) under one renderer.
+    Stopwatch exact_clock;
+    std::vector<Eigen::Vector3f> albedo;
+    for (const Eigen::Vector3d& p : pixels.point) albedo.push_back(PlaneAlbedo(scene.plane, p).cast<float>());
+    const std::vector<Eigen::Vector3f> r = MakeExactVisibility(scene)->Render(pixels.point, albedo, *est.sg, false);
+    const ImageMetrics im = CompareImages(PlaneRenderImage(pixels, r), scene.image, PlanePixelMask(pixels));
+    est.extra["psnr_exact_visibility"] = im.psnr;
+    est.extra["ssim_exact_visibility"] = im.ssim;
+    est.extra["exact_render_seconds"] = exact_clock.Seconds();
+  }
   if (scene.image_virtual_objs) EnsureCompositeTrees(scene, scene_dir, ctx);  // for the insertion scores
   const Json m = ScoreAndWrite(scene, pixels, est, out_dir, clock, ctx);
   char line[256];

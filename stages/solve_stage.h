@@ -17,6 +17,8 @@ struct SolveOptions {
   int map_height = 16;               // baselines: map rows over the hemisphere
   bool estimate_albedo = false;      // sh21: estimate the plane albedo scale jointly
   std::string ssdf = "exact";        // exact | c2f (the reference's coarse-to-fine search)
+  std::string visibility = "spheres";  // sg: spheres (sphere-tree sigmoid) | exact (ray-cast mesh, slower)
+  bool score_exact = false;          // sg, sg-paper: also score the estimate rendered with exact visibility
 
   // Message naming the bad option, or empty.
   std::string Validate() const;

@@ -134,7 +134,12 @@ const SphereTree& EnsureSphereTree(SceneObject& object, const fs::path& scene_di
   }
 
   SphereTreeBuildSummary summary;
-  SphereTree tree = BuildSphereTree(object.mesh, options, ctx.Progress("sphere tree " + object.mesh_path), &summary);
+  SphereTree tree;
+  try {
+    tree = BuildSphereTree(object.mesh, options, ctx.Progress("sphere tree " + object.mesh_path), &summary);
+  } catch (const InputError& e) {  // the mesh's problem: name its file
+    throw InputError((scene_dir / object.mesh_path).string(), e.what());
+  }
   char line[256];
   std::snprintf(line, sizeof line, "built %zu spheres (%d levels, branching %d) in %.2f s, leaf stand-off %.4f of the diagonal",
                 tree.nodes.size(), tree.levels, tree.branching, summary.seconds, summary.leaf_standoff);

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
 #include <sstream>
 
@@ -101,6 +102,14 @@ TEST(SphIo, RoundTripAndTruncation) {
   ASSERT_EQ(back.nodes.size(), 3u);
   EXPECT_TRUE(back.nodes[2].empty());
   EXPECT_DOUBLE_EQ(back.nodes[1].radius, 0.6);
+  // Bit-exact: the cached file must give the solver the tree it built.
+  SphereTree odd = t;
+  odd.nodes[1] = {{1.0 / 3, -2.0 / 7, 1e-9 + 0.1}, std::sqrt(2.0) / 10};
+  std::stringstream exact;
+  WriteSph(exact, odd);
+  const SphereTree odd_back = ReadSph(exact, "exact.sph");
+  EXPECT_EQ(odd_back.nodes[1].centre, odd.nodes[1].centre);
+  EXPECT_EQ(odd_back.nodes[1].radius, odd.nodes[1].radius);
   std::stringstream bad("3 8\n0 0 0 1\n");
   ExpectInputError([&] { ReadSph(bad, "cut.sph"); }, "cut.sph", "truncated");
 }

@@ -10,6 +10,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <vector>
@@ -42,6 +44,14 @@ Image ReadExr(const fs::path& path, bool keep_alpha) {
     const long h = static_cast<long>(dw.max.y) - dw.min.y + 1;
     if (w <= 0 || h <= 0 || w * h > kMaxPixels)
       throw InputError(path.string(), "unreasonable EXR size " + std::to_string(w) + "x" + std::to_string(h));
+    // No EXR compression packs more than ~1000 pixels into a byte: a header
+    // claiming more is corrupt, and the pixels are not allocated.
+    std::error_code ec;
+    const auto bytes = std::filesystem::file_size(path, ec);
+    if (!ec && static_cast<double>(w) * h > 1000.0 * static_cast<double>(bytes) + 65536)
+      throw InputError(path.string(), "EXR header claims " + std::to_string(w) + "x" + std::to_string(h) +
+                                          " pixels, more than a " + std::to_string(bytes) +
+                                          "-byte file can hold (truncated or corrupt)");
     const Imf::ChannelList& ch = file.header().channels();
     std::vector<std::string> names;
     if (ch.findChannel("R") && ch.findChannel("G") && ch.findChannel("B")) {
@@ -121,6 +131,19 @@ void WriteLatLongExr(const fs::path& path, const Image& image) {
   WriteExrFile(path, image, ExrPixelType::kFloat, true);
 }
 
+Image ReadEnvMapExr(const fs::path& path, EnvMapSign sign) {
+  Image env = ReadExr(path);
+  if (env.width != 2 * env.height)
+    throw InputError(path.string(), "environment map must be twice as wide as high (is " + std::to_string(env.width) +
+                                        "x" + std::to_string(env.height) + ")");
+  for (float v : env.data) {
+    if (!std::isfinite(v)) throw InputError(path.string(), "environment map has non-finite texels");
+    if (v < 0 && sign == EnvMapSign::kNonNegative)
+      throw InputError(path.string(), "environment map has negative texels");
+  }
+  return env;
+}
+
 bool ExrIsLatLong(const fs::path& path) {
   RequireFile(path);
   try {
@@ -131,10 +154,45 @@ bool ExrIsLatLong(const fs::path& path) {
   }
 }
 
+namespace {
+
+// libpng and libjpeg report a cut-off file on stderr themselves (and libjpeg
+// then decodes the part it has); a PNG must end with its IEND chunk, a JPEG
+// with an end-of-image marker, which we check first.
+void CheckLdrComplete(const std::vector<unsigned char>& b, const fs::path& path) {
+  auto tail_has = [&](const std::string& what, size_t tail) {
+    const size_t from = b.size() > tail ? b.size() - tail : 0;
+    return std::search(b.begin() + static_cast<long>(from), b.end(), what.begin(), what.end(),
+                       [](unsigned char x, char y) { return x == static_cast<unsigned char>(y); }) != b.end();
+  };
+  static const unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (b.size() >= 8 && std::equal(kPng, kPng + 8, b.begin())) {
+    if (!tail_has("IEND", 64)) throw InputError(path.string(), "truncated PNG (no IEND chunk at the end)");
+  } else if (b.size() >= 2 && b[0] == 0xFF && b[1] == 0xD8) {
+    if (!tail_has("\xFF\xD9", 4096)) throw InputError(path.string(), "truncated JPEG (no end-of-image marker)");
+  }
+}
+
+}  // namespace
+
 Image ReadLdr(const fs::path& path) {
   RequireFile(path);
-  cv::Mat m = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+  std::vector<unsigned char> bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw InputError(path.string(), "cannot open file");
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  CheckLdrComplete(bytes, path);
+  cv::Mat m;
+  try {
+    m = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception& e) {
+    throw InputError(path.string(), std::string("unreadable image: ") + e.what());
+  }
   if (m.empty()) throw InputError(path.string(), "unreadable image (not a PNG/JPEG OpenCV can decode)");
+  if (static_cast<double>(m.cols) * m.rows > kMaxPixels)
+    throw InputError(path.string(), "unreasonable image size " + std::to_string(m.cols) + "x" + std::to_string(m.rows));
   double scale = 1.0;
   switch (m.depth()) {
     case CV_8U: scale = 1.0 / 255; break;

@@ -19,6 +19,13 @@ void WriteExr(const std::filesystem::path& path, const Image& image,
 // `envmap` attribute = LATLONG (ImfEnvmap.h); the caller lays it out in
 // OpenEXR's convention first (EnvMapToLatLong, calib/conventions.h).
 void WriteLatLongExr(const std::filesystem::path& path, const Image& image);
+// An equirectangular environment map (scene-format.md): an EXR twice as wide
+// as high with finite radiance, non-negative unless kSigned; InputError
+// otherwise. kSigned is for estimates to be scored: SS03's least-squares maps
+// hold negative texels by design (the published method), and eval must
+// render them as they are.
+enum class EnvMapSign { kNonNegative, kSigned };
+Image ReadEnvMapExr(const std::filesystem::path& path, EnvMapSign sign = EnvMapSign::kNonNegative);
 // True when the EXR's header says envmap = LATLONG.
 bool ExrIsLatLong(const std::filesystem::path& path);
 

@@ -13,7 +13,7 @@ namespace fs = std::filesystem;
 Json ParseJson(const std::string& text, const std::string& name) {
   try {
     return Json::parse(text);
-  } catch (const Json::parse_error& e) {
+  } catch (const Json::exception& e) {  // parse errors, and numbers out of range (1e999)
     throw InputError(name, std::string("invalid JSON: ") + e.what());
   }
 }

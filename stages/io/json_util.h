@@ -40,7 +40,9 @@ class JsonReader {
   [[noreturn]] void Fail(const std::string& key, const std::string& problem) const;
   const Json& node() const { return node_; }
   const std::string& file() const { return file_; }
-  std::string Path(const std::string& key) const { return key_.empty() ? key : key_ + "." + key; }
+  std::string Path(const std::string& key) const {
+    return key_.empty() ? key : key.empty() ? key_ : key_ + "." + key;
+  }
 
  private:
   const Json& Get(const std::string& key) const;

@@ -11,6 +11,16 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// Beyond these a lobe is no lighting a camera recorded, and products of
+// values overflow in the renderers (a 0.01-degree sun has sharpness ~3e7).
+constexpr double kMaxSharpness = 1e9;
+constexpr double kMaxRadiance = 1e12;
+
+void CheckRadiance(const JsonReader& r, const std::string& key, const Eigen::Vector3d& v) {
+  if ((v.array() < 0).any()) r.Fail(key, key + " must be non-negative");
+  if (v.maxCoeff() > kMaxRadiance) r.Fail(key, key + " is unreasonably large (> 1e12)");
+}
+
 std::vector<SgLobe> ParseLobes(const JsonReader& doc) {
   std::vector<SgLobe> lobes;
   if (!doc.Has("lobes")) return lobes;
@@ -23,8 +33,9 @@ std::vector<SgLobe> ParseLobes(const JsonReader& doc) {
     lobe.axis.normalize();
     lobe.sharpness = l.Number("sharpness");
     if (lobe.sharpness <= 0) l.Fail("sharpness", "sharpness must be positive");
+    if (lobe.sharpness > kMaxSharpness) l.Fail("sharpness", "sharpness is unreasonably large (> 1e9)");
     lobe.amplitude = l.Vec3("amplitude");
-    if ((lobe.amplitude.array() < 0).any()) l.Fail("amplitude", "amplitude must be non-negative");
+    CheckRadiance(l, "amplitude", lobe.amplitude);
     lobes.push_back(lobe);
   }
   return lobes;
@@ -36,7 +47,11 @@ SgLighting ParseSgLighting(const JsonReader& doc) {
   const std::string format = doc.String("format", "sg-lighting/1");
   if (format != "sg-lighting/1") doc.Fail("format", "expected \"sg-lighting/1\", got \"" + format + "\"");
   SgLighting sg;
-  if (doc.Has("up")) sg.up = doc.Vec3("up").normalized();
+  if (doc.Has("up")) {
+    sg.up = doc.Vec3("up");
+    if (sg.up.norm() < 1e-9) doc.Fail("up", "up vector is zero");
+    sg.up.normalize();
+  }
   if (!doc.Has("lobes")) doc.Fail("lobes", "missing key");
   sg.lobes = ParseLobes(doc);
   return sg;
@@ -53,6 +68,7 @@ LightSet ParseLights(const JsonReader& doc, const fs::path& base_dir) {
       if (sun.direction.norm() < 1e-9) s.Fail("direction", "direction is zero");
       sun.direction.normalize();
       sun.irradiance = s.Vec3("irradiance");
+      CheckRadiance(s, "irradiance", sun.irradiance);
       sun.angular_radius = s.Number("angular_radius_deg", 0) * M_PI / 180;
       if (sun.angular_radius < 0 || sun.angular_radius > M_PI / 4)
         s.Fail("angular_radius_deg", "expected 0 to 45 degrees");
@@ -68,15 +84,16 @@ LightSet ParseLights(const JsonReader& doc, const fs::path& base_dir) {
       light.half_u = a.Vec3("half_u");
       light.half_v = a.Vec3("half_v");
       light.radiance = a.Vec3("radiance");
+      CheckRadiance(a, "radiance", light.radiance);
       if (light.half_u.cross(light.half_v).norm() < 1e-12) a.Fail("half_u", "area light has zero area");
       set.areas.push_back(light);
     }
   }
   if (doc.Has("env")) {
-    Image env = ReadExr(base_dir / doc.String("env"));
-    if (env.width != 2 * env.height)
-      throw InputError((base_dir / doc.String("env")).string(), "environment map must be twice as wide as high");
-    const float s = static_cast<float>(doc.Number("env_scale", 1.0));
+    Image env = ReadEnvMapExr(base_dir / doc.String("env"));
+    const double scale = doc.Number("env_scale", 1.0);
+    if (!(scale >= 0 && scale <= kMaxRadiance)) doc.Fail("env_scale", "expected a non-negative scale up to 1e12");
+    const float s = static_cast<float>(scale);
     for (float& v : env.data) v *= s;
     set.env = std::move(env);
   }
@@ -90,8 +107,7 @@ LightSet ReadLighting(const fs::path& path) {
   std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
   LightSet set;
   if (ext == ".exr") {
-    Image env = ReadExr(path);
-    if (env.width != 2 * env.height) throw InputError(path.string(), "environment map must be twice as wide as high");
+    Image env = ReadEnvMapExr(path, EnvMapSign::kSigned);
     set.env = std::move(env);
     return set;
   }
@@ -101,7 +117,8 @@ LightSet ReadLighting(const fs::path& path) {
   if (format == "sg-lighting/1") set.sg = ParseSgLighting(r);
   else if (format == "lights/1") set = ParseLights(r, path.parent_path());
   else r.Fail("format", "unknown lighting format \"" + format + "\" (expected sg-lighting/1 or lights/1)");
-  if (set.empty()) throw InputError(path.string(), "lighting file holds no light");
+  if (set.empty() || (set.sg && set.sg->lobes.empty() && !set.env && set.suns.empty() && set.areas.empty()))
+    throw InputError(path.string(), "lighting file holds no light (no lobes, suns, areas or env map)");
   return set;
 }
 

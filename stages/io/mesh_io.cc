@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -28,11 +29,49 @@ void Validate(const TriangleMesh& mesh, const std::string& name) {
     for (int k = 0; k < 3; ++k)
       if (f[k] < 0 || f[k] >= n) throw InputError(name, "face refers to vertex " + std::to_string(f[k]) +
                                                              " of " + std::to_string(n));
+  // Coordinates that overflow once squared (1e300) are as unusable as NaN.
+  for (const auto& v : mesh.vertices)
+    if (v.cwiseAbs().maxCoeff() > 1e30) throw InputError(name, "mesh has a non-finite vertex coordinate (|x| > 1e30)");
+  bool any_area = false;
+  for (const auto& f : mesh.faces) {
+    const Eigen::Vector3d a = mesh.vertices[f[0]], b = mesh.vertices[f[1]], c = mesh.vertices[f[2]];
+    if ((b - a).cross(c - a).norm() > 0) {
+      any_area = true;
+      break;
+    }
+  }
+  if (!any_area)
+    throw InputError(name, "all " + std::to_string(mesh.faces.size()) + " faces are degenerate (zero area)");
+}
+
+// tinyobjloader reads a coordinate it cannot parse ("nan", "1.#IND") as 0;
+// a vertex line must hold numbers, and finite ones.
+void CheckObjVertexLines(const std::string& text, const std::string& name) {
+  std::istringstream in(text);
+  std::string line;
+  for (int line_no = 1; std::getline(in, line); ++line_no) {
+    const size_t s = line.find_first_not_of(" \t");
+    if (s == std::string::npos || line.compare(s, 2, "v ") != 0) continue;
+    std::istringstream ls(line.substr(s + 2));
+    std::string tok;
+    for (int k = 0; k < 3; ++k) {
+      if (!(ls >> tok)) throw InputError(name + ":" + std::to_string(line_no), "vertex needs x y z");
+      char* end = nullptr;
+      const double v = std::strtod(tok.c_str(), &end);
+      if (end == tok.c_str() || *end != '\0')
+        throw InputError(name + ":" + std::to_string(line_no), "vertex coordinate '" + tok + "' is not a number");
+      if (!std::isfinite(v)) throw InputError(name + ":" + std::to_string(line_no), "mesh has a non-finite vertex coordinate");
+    }
+  }
 }
 
 }  // namespace
 
-TriangleMesh ReadObj(std::istream& in, const std::string& name) {
+TriangleMesh ReadObj(std::istream& stream, const std::string& name) {
+  std::stringstream in;
+  in << stream.rdbuf();
+  in.clear();  // an empty file sets failbit; "no vertices" below says it better
+  CheckObjVertexLines(in.str(), name);
   tinyobj::attrib_t attrib;
   std::vector<tinyobj::shape_t> shapes;
   std::vector<tinyobj::material_t> materials;
@@ -157,9 +196,16 @@ TriangleMesh ReadPly(std::istream& in, const std::string& name) {
         if (!p.count_type.empty()) {
           const double n = next(p.count_type);
           if (n < 0 || n > 1024) throw InputError(name, "PLY list of unreasonable length");
+          const bool indices = p.name == "vertex_indices" || p.name == "vertex_index";
           std::vector<long> vals;
-          for (int k = 0; k < static_cast<int>(n); ++k) vals.push_back(static_cast<long>(next(p.type)));
-          if (p.name == "vertex_indices" || p.name == "vertex_index") list = vals;
+          for (int k = 0; k < static_cast<int>(n); ++k) {
+            const double v = next(p.type);
+            if (!indices) continue;  // other lists (texture coordinates, ...) are not used
+            if (!(v >= 0 && v < 2147483647.0) || v != std::floor(v))
+              throw InputError(name, "PLY face has vertex index " + std::to_string(v) + ", not a vertex number");
+            vals.push_back(static_cast<long>(v));
+          }
+          if (indices) list = vals;
         } else {
           const double v = next(p.type);
           if (p.name == "x") xyz.x() = v;

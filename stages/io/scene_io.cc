@@ -1,7 +1,9 @@
 #include "stages/io/scene_io.h"
 
 #include <cctype>
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "calib/error.h"
 #include "stages/io/image_io.h"
@@ -28,6 +30,21 @@ void CheckRigid(const JsonReader& r, const std::string& key, const Eigen::Matrix
 
 }  // namespace
 
+// The photograph must be able to show a shadow: finite, not black, not one
+// value everywhere (a saturated or blank frame).
+void CheckObservation(const Image& image, const fs::path& path) {
+  float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+  for (float v : image.data) {
+    if (!std::isfinite(v)) throw InputError(path.string(), "image has non-finite pixels");
+    lo = std::min(lo, v);
+    hi = std::max(hi, v);
+  }
+  if (hi <= 0) throw InputError(path.string(), "image is black (no pixel above 0): nothing to recover lighting from");
+  if (hi - lo <= 1e-6f * hi)
+    throw InputError(path.string(), "every pixel holds the same value " + std::to_string(hi) +
+                                        " (a saturated or blank image): it shows no shadow");
+}
+
 Camera ParseCamera(const JsonReader& r) {
   Camera c;
   const std::string proj = r.String("proj_type", "perspective");
@@ -36,8 +53,8 @@ Camera ParseCamera(const JsonReader& r) {
   else r.Fail("proj_type", "expected \"perspective\" or \"orthographic\", got \"" + proj + "\"");
   c.width = r.Int("width");
   c.height = r.Int("height");
-  if (c.width <= 0 || c.height <= 0 || c.width > kMaxImageSide || c.height > kMaxImageSide)
-    r.Fail("width", "image size must be between 1 and 65536");
+  if (c.width <= 0 || c.width > kMaxImageSide) r.Fail("width", "image size must be between 1 and 65536");
+  if (c.height <= 0 || c.height > kMaxImageSide) r.Fail("height", "image size must be between 1 and 65536");
   c.c2w = r.Mat4("c2w");
   CheckRigid(r, "c2w", c.c2w, false);
   if (c.projection == Projection::kPerspective) {
@@ -176,8 +193,12 @@ Scene LoadScene(const fs::path& dir, const SceneLoadOptions& options) {
       for (size_t p = 0; p < rgb.pixels(); ++p) rgb.set_rgb(p, scene.image.rgb(p));
       scene.image = std::move(rgb);
     }
-    for (float v : scene.image.data)
-      if (!std::isfinite(v)) throw InputError(image_path.string(), "image has non-finite pixels");
+    if (options.require_observation) {
+      CheckObservation(scene.image, image_path);
+    } else {
+      for (float v : scene.image.data)
+        if (!std::isfinite(v)) throw InputError(image_path.string(), "image has non-finite pixels");
+    }
   }
 
   if (options.load_extras) {
@@ -194,10 +215,7 @@ Scene LoadScene(const fs::path& dir, const SceneLoadOptions& options) {
     }
     const fs::path env_path = dir / root.String("env_gt", "env_gt.exr");
     if (fs::exists(env_path)) {
-      Image env = ReadExr(env_path);
-      if (env.width != 2 * env.height)
-        throw InputError(env_path.string(), "environment map must be twice as wide as high");
-      scene.env_gt = std::move(env);
+      scene.env_gt = ReadEnvMapExr(env_path);
     }
     const fs::path virt = dir / root.String("image_virtual_objs", "image_virtual_objs.exr");
     if (fs::exists(virt)) {

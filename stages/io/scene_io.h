@@ -14,6 +14,9 @@ namespace shadowsg {
 struct SceneLoadOptions {
   bool require_image = true;  // false for tools that only render the scene's geometry
   bool load_extras = true;    // mask, env_gt, image_virtual_objs
+  // The image must be something to solve from (CheckObservation: not black,
+  // not one value everywhere); otherwise only finite.
+  bool require_observation = false;
 };
 
 Scene LoadScene(const std::filesystem::path& dir, const SceneLoadOptions& options = {});
@@ -31,6 +34,9 @@ std::vector<SceneObject> ReadObjectsFile(const std::filesystem::path& path);
 // object poses and paths); `file` names the document in errors.
 Camera ParseCamera(const JsonReader& camera);
 Plane ParsePlane(const JsonReader& plane);  // texture_path only; LoadScene reads the texture
+// The observation must be able to show a shadow: finite, not black, not one
+// value everywhere (a saturated or blank frame). InputError names `path`.
+void CheckObservation(const Image& image, const std::filesystem::path& path);
 // A plane albedo texture: EXR as linear, PNG/JPEG as sRGB-encoded (decoded to linear).
 Image ReadPlaneTexture(const std::filesystem::path& path);
 

@@ -1,7 +1,9 @@
 #include "stages/io/sph_io.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include "calib/error.h"
@@ -24,7 +26,7 @@ SphereTree ReadSph(std::istream& in, const std::string& name) {
                                std::to_string(tree.branching));
   const size_t n = SphereTree::NodeCount(tree.levels, tree.branching);
   if (n > 20000000) throw InputError(name, "sphere tree too large");
-  tree.nodes.reserve(n);
+  tree.nodes.reserve(std::min<size_t>(n, 1 << 16));  // the header is not trusted for memory
   for (size_t i = 0; i < n; ++i) {
     if (!std::getline(in, line))
       throw InputError(name, "truncated: expected " + std::to_string(n) + " spheres, found " + std::to_string(i));
@@ -49,7 +51,9 @@ SphereTree ReadSph(const fs::path& path) {
 
 void WriteSph(std::ostream& out, const SphereTree& tree) {
   out << tree.levels << ' ' << tree.branching << '\n';
-  out.precision(9);
+  // Every digit of a double: a solve that builds a tree and one that reads
+  // its cached .sph back must see the same spheres (same result).
+  out.precision(std::numeric_limits<double>::max_digits10);
   for (const auto& s : tree.nodes)
     out << s.centre.x() << ' ' << s.centre.y() << ' ' << s.centre.z() << ' ' << (s.empty() ? -1.0 : s.radius)
         << '\n';

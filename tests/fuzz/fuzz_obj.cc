@@ -1,0 +1,11 @@
+// OBJ meshes (tinyobjloader behind our checks).
+#include <sstream>
+
+#include "fuzz_util.h"
+#include "stages/io/mesh_io.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  using namespace shadowsg;
+  std::istringstream in(fuzz::AsString(data, size));
+  return fuzz::Expect([&] { ReadObj(in, "fuzz.obj"); });
+}
