@@ -14,7 +14,11 @@ for a in "$@"; do
 done
 bash scripts/install-deps.sh
 bash scripts/build.sh build
-(cd build && ctest --output-on-failure -j 2 --timeout 900)
+(cd build && ctest --output-on-failure -j 2 --timeout 900 -LE workflow)
+# The batch workflow, locally and on a one-node Slurm cluster on localhost
+# (snakemake, slurm-wlm, munge; about 1.5 min).
+bash scripts/install-workflow-deps.sh
+(cd build && ctest --output-on-failure --timeout 900 -L workflow)
 if [ "$sanitize" = 1 ]; then
   # -O1 -g1: the sanitizers need frames, not full debug info; keeps CI's
   # second build within its time.
@@ -22,10 +26,10 @@ if [ "$sanitize" = 1 ]; then
     -DSHADOWSG_SANITIZE=ON -DSHADOWSG_BUILD_BENCHMARKS=OFF
   # Embree's and OpenMP's own allocations are not ours: leaks are not checked
   # here (LeakSanitizer), addressing and undefined behaviour are. Tests
-  # labelled slow (whole solver runs) or colmap (the COLMAP subprocess) ran in
+  # labelled slow (whole solver runs), colmap (the COLMAP subprocess) or workflow ran in
   # the Release pass; under the sanitizers they would take most of CI's hour.
   (cd build-asan && ASAN_OPTIONS=detect_leaks=0 UBSAN_OPTIONS=print_stacktrace=1 \
-     ctest --output-on-failure -j 2 --timeout 1800 -LE "slow|colmap")
+     ctest --output-on-failure -j 2 --timeout 1800 -LE "slow|colmap|workflow")
 fi
 if [ "$fuzz" = 1 ]; then
   # libFuzzer (clang, ASan + UBSan) on each parser: 10 targets x 30 s, plus

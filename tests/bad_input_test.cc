@@ -659,7 +659,9 @@ TEST_P(BadInput, FailsCleanlyWithOneLineNamingTheFile) {
   EXPECT_EQ(line.rfind("error: ", 0), 0u) << line;
   const std::string names = c.names.empty() ? fs::path(c.file).filename().string() : c.names;
   EXPECT_NE(line.find(names), std::string::npos) << "the line does not name " << names << ": " << line;
-  if (!c.problem.empty()) EXPECT_NE(line.find(c.problem), std::string::npos) << "expected \"" << c.problem << "\": " << line;
+  if (!c.problem.empty()) {
+    EXPECT_NE(line.find(c.problem), std::string::npos) << "expected \"" << c.problem << "\": " << line;
+  }
   EXPECT_EQ(r.err.find("Sanitizer"), std::string::npos) << r.err;
   EXPECT_EQ(r.err.find("runtime error"), std::string::npos) << r.err;
   // The output folder is as it was: no partial or temporary file, the good one intact.

@@ -188,7 +188,9 @@ TEST(NumericalGuards, ShadowOutOfViewGivesFiniteLightingAndAWarning) {
     double sum = 0;
     for (float v : env.data) {
       ASSERT_TRUE(std::isfinite(v)) << m.args[1];
-      if (m.non_negative) ASSERT_GE(v, 0) << m.args[1];
+      if (m.non_negative) {
+        ASSERT_GE(v, 0) << m.args[1];
+      }
       sum += v;
     }
     EXPECT_GT(sum, 0) << m.args[1] << ": the plane is lit, so the estimate holds some light";
@@ -196,7 +198,9 @@ TEST(NumericalGuards, ShadowOutOfViewGivesFiniteLightingAndAWarning) {
     ASSERT_TRUE(metrics["psnr"].is_number()) << m.args[1] << ": " << metrics.dump();
     EXPECT_TRUE(std::isfinite(metrics["psnr"].get<double>()));
     // The image is reproduced (the total light is determined).
-    if (m.converged) EXPECT_GT(metrics["psnr"].get<double>(), 20) << m.args[1];
+    if (m.converged) {
+      EXPECT_GT(metrics["psnr"].get<double>(), 20) << m.args[1];
+    }
   }
 }
 

@@ -5,24 +5,35 @@
 // the registered scene re-renders the hero photo within 1 dB of the same
 // solver on the true scene; a second run skips every stage; a touched input,
 // --force and a changed setting redo exactly the stages they should.
+// RunCaptureResume (fast, no COLMAP: capture.json names a camera.json and a
+// sparse model made from the capture's true cameras) interrupts the real
+// `shadowsg run` binary while solve runs and resumes it.
 #include "stages/run_stage.h"
 
 #include <gtest/gtest.h>
 
+#include <signal.h>
+
 #include <chrono>
 #include <cstdio>
 #include <functional>
+#include <map>
+#include <random>
 #include <set>
+#include <thread>
 
+#include "calib/colmap_model.h"
 #include "calib/error.h"
 #include "solver/primitives.h"
 #include "stages/colmap_runner.h"
 #include "stages/io/atomic_file.h"
+#include "stages/io/capture_io.h"
 #include "stages/io/capture_manifest_io.h"
 #include "stages/io/mesh_io.h"
 #include "stages/io/scene_io.h"
 #include "stages/solve_stage.h"
 #include "stages/stage_util.h"
+#include "cli_harness.h"
 #include "multiview_capture.h"
 #include "test_util.h"
 
@@ -294,6 +305,208 @@ TEST(RunCaptureColmap, SyntheticCaptureEndToEndAndResume) {
   EXPECT_EQ(fifth.Stage("composite").reason, "settings changed (composite)");
   std::printf("second run (all skipped) %.2f s; after touching hero.exr %.1f s; total %.1f s\n", second_seconds,
               third.seconds, total.Seconds());
+}
+
+// ---- Interrupted and resumed (the real binary, no COLMAP) -------------------------
+
+// Every file under `dir` (relative name -> bytes), leaving out the folders
+// and files named in `skip` (first path component).
+std::map<std::string, std::string> Snapshot(const fs::path& dir, const std::set<std::string>& skip) {
+  std::map<std::string, std::string> m;
+  for (const auto& e : fs::recursive_directory_iterator(dir)) {
+    const fs::path rel = fs::relative(e.path(), dir);
+    if (skip.count(rel.begin()->string()) || !e.is_regular_file()) continue;
+    m[rel.generic_string()] = testing::ReadWholeFile(e.path());
+  }
+  return m;
+}
+
+// The files of `before` that `after` lacks or holds with other bytes ("" when
+// none). New files are allowed: solve caches the caster's sphere tree beside
+// its mesh in scene/geometry.
+std::string ChangedOrRemoved(const std::map<std::string, std::string>& before,
+                             const std::map<std::string, std::string>& after) {
+  std::string out;
+  for (const auto& [name, bytes] : before)
+    if (!after.count(name)) out += name + " (removed)\n";
+    else if (after.at(name) != bytes) out += name + " (changed)\n";
+  return out;
+}
+
+std::vector<fs::path> TemporariesUnder(const fs::path& dir) {
+  std::vector<fs::path> out;
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    if (e.path().filename().string().find(".tmp") != std::string::npos) out.push_back(e.path());
+  return out;
+}
+
+// The sparse model COLMAP would give, from the capture's true cameras, and
+// points on the plane and on the box (already metric, in the true world).
+ColmapModel TrueColmapModel(const testing::MultiviewCapture& cap) {
+  ColmapModel model;
+  ColmapCamera camera = CameraToColmapCamera(cap.lens);
+  camera.id = 1;
+  model.cameras[1] = camera;
+  auto add_image = [&](const std::string& name, const Eigen::Matrix4d& c2w) {
+    ColmapImage im;
+    im.id = static_cast<colmap_image_t>(model.images.size() + 1);
+    im.camera_id = 1;
+    im.name = name;
+    im.pose = C2wToColmapPose(c2w);
+    model.images[im.id] = im;
+  };
+  for (size_t i = 0; i < cap.ring.size(); ++i) {
+    char name[32];
+    std::snprintf(name, sizeof name, "view_%02zu.png", i);
+    add_image(name, cap.ring[i]);
+  }
+  add_image("hero.png", cap.hero_c2w);
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> uni(-1, 1);
+  std::normal_distribution<double> gauss(0, 1);
+  const double half = 0.9 * cap.spec.plane_half;
+  const Eigen::Vector3d& box = cap.spec.box_half;
+  uint64_t id = 1;
+  auto add_point = [&](const Eigen::Vector3d& x) {
+    ColmapPoint3D p;
+    p.id = id++;
+    p.xyz = x;
+    model.points.push_back(p);
+  };
+  for (int i = 0; i < 400; ++i) {
+    const Eigen::Vector3d x(half * uni(rng), half * uni(rng), 0.001 * gauss(rng));
+    if (std::abs(x.x()) > box.x() || std::abs(x.y()) > box.y()) add_point(x);
+  }
+  for (int i = 0; i < 60; ++i) add_point({box.x() * uni(rng), box.y() * uni(rng), box.z() * (1 + uni(rng))});
+  return model;
+}
+
+// RunCapture's lines on stderr about `stage` ("[i/7] stage: ..."), one per line.
+std::string StageLine(const std::string& err, const std::string& stage) {
+  std::istringstream in(err);
+  std::string line, lines;
+  while (std::getline(in, line))
+    if (!line.empty() && line[0] == '[' && line.find("] " + stage + ": ") != std::string::npos) lines += line + "\n";
+  return lines;
+}
+
+TEST(RunCaptureResume, InterruptedRunResumesWhereItStopped) {
+  TempDir tmp;
+  const fs::path capture = tmp / "capture";
+  const Stopwatch total;
+
+  // The synthetic capture folder of the COLMAP test (fewer ring views and one
+  // checkerboard photo: neither COLMAP nor the intrinsics stage runs here).
+  const testing::MultiviewCapture cap = testing::MakeMultiviewCapture(testing::MultiviewSpec(), 8);
+  testing::CaptureFolderOptions folder;
+  folder.board_views = 1;
+  Json doc = testing::WriteCaptureFolder(cap, capture, folder);
+  CameraFile camera_file;
+  camera_file.camera = cap.lens;
+  WriteJsonFile(capture / "camera.json", CameraFileToJson(camera_file));
+  WriteColmapModel(capture / "sparse", TrueColmapModel(cap), ColmapFormat::kText);
+  doc["intrinsics"] = {{"camera", "camera.json"}};
+  doc["walkaround"] = {{"images", "images"}, {"colmap_model", "sparse"}};
+  WriteObj(capture / "ball.obj", MakeIcosphere(0.06, 2));
+  Eigen::Matrix4d ball = Eigen::Matrix4d::Identity();
+  ball.topRightCorner<3, 1>() = Eigen::Vector3d(0.3, -0.2, 0.06);
+  WriteJsonFile(capture / "virtual.json",
+                Json{{"format", "objects/1"},
+                     {"objects", Json::array({{{"path_to_mesh", "ball.obj"}, {"o2w", ToJson(ball)},
+                                               {"diffuse", {0.7, 0.7, 0.7}}}})}});
+  doc["solve"] = {{"method", "sg"}, {"budget", "fast"}};
+  doc["composite"] = {{"objects", "virtual.json"}, {"quality", "preview"}, {"spp", 4}, {"bounces", 1}};
+  WriteJsonFile(capture / "capture.json", doc);
+  const double setup_seconds = total.Seconds();
+
+  const fs::path out = capture / "shadowsg", logs = tmp / "logs";
+  fs::create_directories(logs);
+  const std::vector<std::string> args = {"run", capture.string(), "--threads", "2", "--seed", "1"};
+
+  // ---- First run, interrupted once solve is under way ------------------------------
+  std::map<std::string, std::string> before;
+  testing::CliRun interrupted;
+  {
+    const fs::path log_dir = logs / "first";
+    fs::create_directories(log_dir);
+    testing::CliProcess p(args, log_dir);
+    // Its stderr (the only cli_err_* file in log_dir) says when solve starts.
+    auto err_so_far = [&] {
+      for (const auto& e : fs::directory_iterator(log_dir))
+        if (e.path().filename().string().rfind("cli_err_", 0) == 0) return testing::ReadWholeFile(e.path());
+      return std::string();
+    };
+    bool solving = false;
+    while (p.Elapsed() < 300 && !solving) {
+      siginfo_t ended{};  // WNOWAIT: left for Wait() to collect
+      if (waitid(P_PID, p.pid(), &ended, WEXITED | WNOHANG | WNOWAIT) == 0 && ended.si_pid == p.pid()) {
+        ADD_FAILURE() << "shadowsg run ended before solve started: " << p.Wait(10).Describe();
+        return;
+      }
+      solving = err_so_far().find("] solve: running") != std::string::npos;
+      if (!solving) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    ASSERT_TRUE(solving) << "solve did not start:\n" << err_so_far();
+    // What the finished stages wrote (solve's and composite's folders aside).
+    before = Snapshot(out, {"solve", "composite", "run_summary.json"});
+    p.Signal(SIGINT);
+    interrupted = p.Wait(120);
+  }
+  const double interrupted_seconds = interrupted.seconds;
+  ASSERT_TRUE(interrupted.exited && !interrupted.timed_out) << interrupted.Describe();
+  EXPECT_EQ(interrupted.code, 130) << interrupted.Describe();
+  EXPECT_NE(interrupted.err.find("interrupted"), std::string::npos) << interrupted.err;
+  EXPECT_EQ(StageLine(interrupted.err, "solve"), "[6/7] solve: running (not run before)\n") << interrupted.err;
+  EXPECT_EQ(StageLine(interrupted.err, "composite"), "") << interrupted.err;
+  for (const char* stage : {"linearize", "plane", "pose", "register"}) {
+    EXPECT_NE(StageLine(interrupted.err, stage).find("done in"), std::string::npos) << stage << "\n" << interrupted.err;
+    EXPECT_TRUE(before.count(std::string("stamps/") + stage + ".json")) << stage;
+  }
+  for (const char* f : {"linear.exr", "plane.json", "pose.json", "scene/scene.json", "scene/image.exr"})
+    EXPECT_TRUE(before.count(f)) << f;
+  // The finished stages' outputs and stamps are untouched; the interrupted
+  // stage left no stamp (and the one after it never started); no temporaries.
+  EXPECT_EQ(ChangedOrRemoved(before, Snapshot(out, {"solve", "composite", "run_summary.json"})), "");
+  EXPECT_FALSE(fs::exists(out / "stamps" / "solve.json"));
+  EXPECT_FALSE(fs::exists(out / "stamps" / "composite.json"));
+  EXPECT_FALSE(fs::exists(out / "composite" / "composite.exr"));
+  EXPECT_EQ(TemporariesUnder(out), std::vector<fs::path>{});
+
+  // ---- Resume: the finished stages are skipped, solve and composite run -------------
+  const fs::path log_dir = logs / "second";
+  fs::create_directories(log_dir);
+  const testing::CliRun resumed = testing::RunCli(args, log_dir, 300);
+  ASSERT_TRUE(resumed.exited && resumed.code == 0) << resumed.Describe();
+  EXPECT_NE(StageLine(resumed.err, "intrinsics").find("given"), std::string::npos) << resumed.err;
+  for (const char* stage : {"linearize", "plane", "pose", "register"})
+    EXPECT_NE(StageLine(resumed.err, stage).find("up to date, skipped"), std::string::npos)
+        << stage << "\n" << resumed.err;
+  EXPECT_NE(StageLine(resumed.err, "solve").find("running (not run before)"), std::string::npos) << resumed.err;
+  EXPECT_NE(StageLine(resumed.err, "composite").find("running (not run before)"), std::string::npos)
+      << resumed.err;
+  const Json summary = ReadJsonFile(out / "run_summary.json");
+  std::map<std::string, std::string> status;
+  for (const auto& st : summary["stages"]) status[st["stage"].get<std::string>()] = st["status"].get<std::string>();
+  EXPECT_EQ(status, (std::map<std::string, std::string>{{"intrinsics", "given"},
+                                                        {"linearize", "skipped"},
+                                                        {"plane", "skipped"},
+                                                        {"pose", "skipped"},
+                                                        {"register", "skipped"},
+                                                        {"solve", "ran"},
+                                                        {"composite", "ran"}}));
+  for (const auto& st : summary["stages"]) {
+    if (st["stage"] != "solve" && st["stage"] != "composite") continue;
+    for (const auto& [what, path] : st["artifacts"].items())
+      EXPECT_TRUE(fs::is_regular_file(path.get<std::string>())) << st["stage"] << " " << what << ": " << path;
+  }
+  EXPECT_TRUE(fs::exists(out / "stamps" / "solve.json"));
+  EXPECT_TRUE(fs::exists(out / "stamps" / "composite.json"));
+  // Skipping rewrote nothing.
+  EXPECT_EQ(ChangedOrRemoved(before, Snapshot(out, {"solve", "composite", "run_summary.json"})), "");
+  EXPECT_EQ(TemporariesUnder(out), std::vector<fs::path>{});
+  std::printf("setup %.1f s; interrupted run %.1f s; resumed run %.1f s (solve %.1f s, composite %.1f s)\n",
+              setup_seconds, interrupted_seconds, resumed.seconds,
+              summary["stages"][5]["seconds"].get<double>(), summary["stages"][6]["seconds"].get<double>());
 }
 
 }  // namespace
