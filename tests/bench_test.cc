@@ -131,7 +131,7 @@ TEST_F(BenchTest, GridExpandsMethodsAndSettings) {
   quick.quick = true;
   const std::vector<BenchSetting> quick_grid = MethodGrid(DefaultBenchMethods(), quick);
   EXPECT_EQ(names(quick_grid), (std::vector<std::string>{"sg-fast", "sg-lobes1-fast", "sg-lobes4-fast",
-                                                         "sg-paper-250", "ss03-h16", "ss03+-h16", "sh21-h16"}));
+                                                         "sg-paper-100", "ss03-h16", "ss03+-h16", "sh21-h16"}));
   EXPECT_EQ(quick_grid[1].solve.budget, "fast");
   EXPECT_EQ(quick_grid[1].solve.lobes, 1);
   EXPECT_EQ(names(MethodGrid({"sg:3", "sg:fast", "ss03:8", "sg:fast"}, {})),

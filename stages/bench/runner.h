@@ -20,7 +20,7 @@ inline constexpr int kPaperStepsDefault[] = {1000, 5000};
 inline constexpr int kPaperStepsFull = 20000;
 // --quick: enough steps to show sg-paper's start on the chart, within the
 // quick bench's two minutes (a step costs 0.05-0.2 s on two cores).
-inline constexpr int kPaperStepsQuick = 250;
+inline constexpr int kPaperStepsQuick = 100;
 // Forced lobe counts of the sg model-size sweep.
 inline constexpr int kSgLobeSweep[] = {1, 2, 4, 8, 16, 32, 64};
 inline constexpr int kSgQuickLobes[] = {1, 4};  // --quick, at the fast budget
@@ -39,7 +39,7 @@ std::vector<std::string> DefaultBenchMethods();
 // Expands --methods entries, each METHOD or METHOD:SETTING, into settings:
 //   sg           fast, balanced, best and the forced-lobe sweep (quick: fast, 1 and 4 lobes at the fast budget)
 //   sg:B         budget B (fast | balanced | best);  sg:N  N lobes forced (balanced budget)
-//   sg-paper     1000 and 5000 steps (full: and 20000; quick: 250);  sg-paper:N  N steps
+//   sg-paper     1000 and 5000 steps (full: and 20000; quick: 100);  sg-paper:N  N steps
 //   ss03, ss03+  16 rows;  ss03:N  N rows
 //   sh21         8, 16 and 32 rows (quick: 16);  sh21:N  N rows
 // Duplicates are dropped, order kept. InputError("--methods", ...) on a bad entry.
