@@ -21,6 +21,10 @@ constexpr double kBoundMargin = 1e-4;
 constexpr double kCutoff = 16.0;
 // The centroid rule over cells of size h is good to ~1 % while lambda h^2 <= this.
 constexpr double kCellResolution = 0.25;
+// Codes: cell << 5 | k, k < fine^2 an occluded sub-cell of a silhouette cell,
+// kSilhouetteCell a silhouette cell whose centre is occluded, kWholeCell a
+// cell occluded with all its neighbours.
+constexpr uint32_t kSilhouetteCell = 30;
 constexpr uint32_t kWholeCell = 31;
 
 // cos-weighted solid angle of the band [t0, t1] x a phi width dphi.
@@ -36,6 +40,8 @@ struct ExactVisibility::Scratch {
   std::vector<uint32_t> cand;
   std::vector<Eigen::Vector4d> agg[kAggregateLevels];  // per super-cell: sum W w (3), sum W
   std::vector<int> agg_touched[kAggregateLevels];
+  std::vector<uint8_t> block;  // per block of cells: 0 not cast, 1 visible, 2 occluded
+  std::vector<int> blocks;
 };
 
 ExactVisibility::ExactVisibility(std::shared_ptr<const RayCaster> casters,
@@ -86,7 +92,15 @@ double ExactVisibility::LevelSwitch(int i) const {
   return kCellResolution / (h * h);
 }
 
-void ExactVisibility::BuildPoint(const Eigen::Vector3d& p, Scratch* s, OccludedSet* out, size_t* rays) const {
+bool ExactVisibility::NeedsSubCells(uint32_t cell, const std::vector<Lobe>& sharp) const {
+  const Eigen::Vector3d w = cell_[cell].head<3>().cast<double>();
+  for (const Lobe& l : sharp)  // the test of Shade's whole-cell reject
+    if (l.level >= kAggregateLevels && !(l.lambda * (w.dot(l.mu) - 1) < -kCutoff - l.lambda * delta_ * 1.5)) return true;
+  return false;
+}
+
+void ExactVisibility::BuildPoint(const Eigen::Vector3d& p, Scratch* s, OccludedSet* out, size_t* rays,
+                                 const std::vector<Lobe>* sharp) const {
   const int R = o_.rows, C = cols_, F = o_.fine;
   const size_t ncell = static_cast<size_t>(R) * C;
   if (s->state.size() != ncell) s->state.assign(ncell, 0);
@@ -99,7 +113,7 @@ void ExactVisibility::BuildPoint(const Eigen::Vector3d& p, Scratch* s, OccludedS
   std::vector<uint32_t>* codes = &out->codes;
   codes->clear();
   s->cand.clear();
-  double offset = 0;
+  double offset = 0, cone = 0;  // cone: the widest caster cone's half-angle (radians)
   for (const Bound& b : bounds_) {
     const Eigen::Vector3d d = b.centre - p;
     const double dist = d.norm();
@@ -107,6 +121,7 @@ void ExactVisibility::BuildPoint(const Eigen::Vector3d& p, Scratch* s, OccludedS
     int rlo = 0, rhi = R - 1;
     double cos_ext = -2;
     Eigen::Vector3d axis = n_;
+    cone = std::max(cone, dist > b.radius ? std::asin(b.radius / dist) : M_PI / 2);
     if (dist > b.radius) {
       axis = d / dist;
       // Any cell reaching into the cone has its centre within alpha + delta.
@@ -128,10 +143,54 @@ void ExactVisibility::BuildPoint(const Eigen::Vector3d& p, Scratch* s, OccludedS
   }
   std::sort(s->cand.begin(), s->cand.end());
   const Eigen::Vector3d origin = p + offset * n_;
-  // Single rays: incoherent directions (see light_transport.cc).
-  for (uint32_t cell : s->cand)
-    s->state[cell] = casters_->Occluded(origin, cell_[cell].head<3>().cast<double>()) ? 2 : 1;
-  size_t cast = s->cand.size();
+  // Blocks of B x B cells, B about 1/16 of the caster's cone diameter (at
+  // most 4 cells): one ray per block first; a block whose 3 x 3 block
+  // neighbourhood agrees takes that state without casting its cells. (An
+  // occluder thinner than a block, ~1/16 of the caster's size, could slip
+  // between these rays.)
+  const int B = cone >= 64 * delta_ ? 4 : cone >= 32 * delta_ ? 2 : 1;
+  size_t cast = 0;
+  if (B > 1) {
+    const int BR = (R + B - 1) / B, BC = C / B;
+    if (s->block.size() < static_cast<size_t>(BR) * BC) s->block.assign(static_cast<size_t>(BR) * BC, 0);
+    s->blocks.clear();
+    for (uint32_t cell : s->cand) {
+      const int b = (static_cast<int>(cell) / C / B) * BC + (static_cast<int>(cell) % C) / B;
+      if (!s->block[b]) {
+        s->block[b] = 1;
+        s->blocks.push_back(b);
+      }
+    }
+    for (int b : s->blocks) {
+      const Eigen::Vector3d d = Dir(std::min((b / BC * B + 0.5 * B) * delta_, M_PI / 2), (b % BC * B + 0.5 * B) * delta_);
+      s->block[b] = casters_->Occluded(origin, d) ? 2 : 1;
+    }
+    cast += s->blocks.size();
+    for (uint32_t cell : s->cand) {
+      const int br = static_cast<int>(cell) / C / B, bc = (static_cast<int>(cell) % C) / B;
+      const uint8_t bs = s->block[br * BC + bc];
+      bool uniform = true;
+      for (int dr = -1; dr <= 1 && uniform; ++dr) {
+        const int rr = br + dr;
+        if (rr < 0 || rr >= BR) continue;
+        for (int dc = -1; dc <= 1 && uniform; ++dc) {
+          const uint8_t ns = s->block[rr * BC + (bc + dc + BC) % BC];
+          uniform = (ns == 0 ? 1 : ns) == bs;
+        }
+      }
+      if (uniform) s->state[cell] = bs;
+      else {
+        s->state[cell] = casters_->Occluded(origin, cell_[cell].head<3>().cast<double>()) ? 2 : 1;
+        ++cast;
+      }
+    }
+    for (int b : s->blocks) s->block[b] = 0;
+  } else {
+    // Single rays: incoherent directions (see light_transport.cc).
+    for (uint32_t cell : s->cand)
+      s->state[cell] = casters_->Occluded(origin, cell_[cell].head<3>().cast<double>()) ? 2 : 1;
+    cast += s->cand.size();
+  }
   auto accumulate = [&](uint32_t cell, const Eigen::Vector4f& e) {
     const int r = static_cast<int>(cell) / C, c = static_cast<int>(cell) % C;
     for (int l = 0; l < kAggregateLevels; ++l) {
@@ -159,17 +218,17 @@ void ExactVisibility::BuildPoint(const Eigen::Vector3d& p, Scratch* s, OccludedS
         }
       }
     }
-    if (boundary) {
+    // Levels 0-3 see the centre rays only; sub-cell rays serve level 4
+    // (sharp lobes), and only where one of `sharp` can reach when given.
+    if (boundary && (!sharp || NeedsSubCells(cell, *sharp))) {
       for (int k = 0; k < F * F; ++k) {
         const Eigen::Vector4f& e = sub_[static_cast<size_t>(cell) * F * F + k];
-        if (casters_->Occluded(origin, e.head<3>().cast<double>())) {
-          codes->push_back(cell << 5 | static_cast<uint32_t>(k));
-          accumulate(cell, e);
-        }
+        if (casters_->Occluded(origin, e.head<3>().cast<double>())) codes->push_back(cell << 5 | static_cast<uint32_t>(k));
       }
       cast += F * F;
-    } else if (st == 2) {
-      codes->push_back(cell << 5 | kWholeCell);
+    }
+    if (st == 2) {
+      codes->push_back(cell << 5 | (boundary ? kSilhouetteCell : kWholeCell));
       accumulate(cell, cell_[cell]);
     }
   }
@@ -239,12 +298,33 @@ OccludedTable ExactVisibility::Tabulate(const std::vector<Eigen::Vector3d>& poin
   return t;
 }
 
-LobeShading ExactVisibility::Shade(const OccludedView& v, const Eigen::Vector3d& mu, double lambda,
-                                   bool gradient) const {
+ExactVisibility::Lobe ExactVisibility::Prepare(const Eigen::Vector3d& mu, double lambda) const {
+  Lobe l;
+  l.mu = mu;
+  l.lambda = lambda;
+  const double c = mu.dot(n_);
+  l.closed = SgCosineIntegral(lambda, c);
+  while (l.level < kAggregateLevels + 1 && lambda > LevelSwitch(l.level)) ++l.level;
+  const int R = o_.rows, C = cols_;
+  int rlo = 0, rhi = R - 1;
+  if (kCutoff / lambda < 2) {  // rows within the cutoff of the axis
+    const double d = std::acos(1 - kCutoff / lambda);
+    const double tm = std::acos(std::clamp(c, -1.0, 1.0));
+    rlo = std::max(0, static_cast<int>(std::floor((tm - d) / delta_)));
+    rhi = std::min(R - 1, static_cast<int>(std::floor((tm + d) / delta_)));
+  }
+  if (rlo <= rhi) {
+    l.lo = static_cast<uint32_t>(rlo * C) << 5;
+    l.hi = static_cast<uint32_t>((rhi + 1) * C) << 5;
+  }
+  return l;
+}
+
+LobeShading ExactVisibility::Shade(const OccludedView& v, const Lobe& lobe, bool gradient) const {
   LobeShading out;
   out.sigma = 1;
-  const double c = mu.dot(n_);
-  const CosineIntegral ci = SgCosineIntegral(lambda, c);
+  const Eigen::Vector3d& mu = lobe.mu;
+  const double lambda = lobe.lambda;
   double occ = 0, docc_dl = 0;
   Eigen::Vector3d docc_dmu = Eigen::Vector3d::Zero();
   auto add = [&](const Eigen::Vector4f& e) {
@@ -258,44 +338,37 @@ LobeShading ExactVisibility::Shade(const OccludedView& v, const Eigen::Vector3d&
       docc_dmu += lambda * g * w;
     }
   };
-  int level = 0;
-  while (level < kAggregateLevels + 1 && lambda > LevelSwitch(level)) ++level;
-  if (level < kAggregateLevels) {
+  if (lobe.level < kAggregateLevels) {
     // Super-cells: level 0 is the coarsest (8 x 8 cells), stored last.
-    const int l = kAggregateLevels - 1 - level;
+    const int l = kAggregateLevels - 1 - lobe.level;
     for (size_t k = 0; k < v.n_aggregates[l]; ++k) add(v.aggregates[l][k]);
-  } else {
-    const int R = o_.rows, C = cols_, F = o_.fine;
-    // Rows within the cutoff of the axis.
-    int rlo = 0, rhi = R - 1;
-    if (kCutoff / lambda < 2) {
-      const double d = std::acos(1 - kCutoff / lambda);
-      const double tm = std::acos(std::clamp(c, -1.0, 1.0));
-      rlo = std::max(0, static_cast<int>(std::floor((tm - d) / delta_)));
-      rhi = std::min(R - 1, static_cast<int>(std::floor((tm + d) / delta_)));
-    }
-    if (rlo <= rhi) {
-      const uint32_t lo = static_cast<uint32_t>(rlo * C) << 5, hi = static_cast<uint32_t>((rhi + 1) * C) << 5;
-      const uint32_t* begin = std::lower_bound(v.codes, v.codes + v.n_codes, lo);
-      const uint32_t* end = std::lower_bound(begin, v.codes + v.n_codes, hi);
-      const bool split = level > kAggregateLevels;  // lambda > LevelSwitch(3): sub-cells
-      for (const uint32_t* it = begin; it != end; ++it) {
-        const uint32_t cell = *it >> 5, sub = *it & 31u;
-        if (sub != kWholeCell) add(sub_[static_cast<size_t>(cell) * F * F + sub]);
-        else if (!split) add(cell_[cell]);
-        else {
-          // Cheap reject: the whole cell is beyond the cutoff.
-          const Eigen::Vector4f& e = cell_[cell];
-          if (lambda * (e.head<3>().cast<double>().dot(mu) - 1) < -kCutoff - lambda * delta_ * 1.5) continue;
-          for (int k = 0; k < F * F; ++k) add(sub_[static_cast<size_t>(cell) * F * F + k]);
-        }
+  } else if (lobe.lo < lobe.hi) {
+    const int F = o_.fine;
+    const uint32_t* begin = std::lower_bound(v.codes, v.codes + v.n_codes, lobe.lo);
+    const uint32_t* end = std::lower_bound(begin, v.codes + v.n_codes, lobe.hi);
+    const bool split = lobe.level > kAggregateLevels;  // lambda > LevelSwitch(3): sub-cells
+    const double reject = -kCutoff - lambda * delta_ * 1.5;
+    for (const uint32_t* it = begin; it != end; ++it) {
+      const uint32_t cell = *it >> 5, sub = *it & 31u;
+      if (!split) {
+        // Cell centres, and the silhouette's sub-cells: a 1-degree step of the
+        // silhouette would band the penumbra of a lobe a few degrees wide.
+        if (sub == kWholeCell) add(cell_[cell]);
+        else if (sub < kSilhouetteCell) add(sub_[static_cast<size_t>(cell) * F * F + sub]);
+      } else if (sub < kSilhouetteCell) {
+        add(sub_[static_cast<size_t>(cell) * F * F + sub]);
+      } else if (sub == kWholeCell) {
+        // Cheap reject: the whole cell is beyond the cutoff.
+        const Eigen::Vector4f& e = cell_[cell];
+        if (lambda * (e.head<3>().cast<double>().dot(mu) - 1) < reject) continue;
+        for (int k = 0; k < F * F; ++k) add(sub_[static_cast<size_t>(cell) * F * F + k]);
       }
     }
   }
-  out.value = ci.value - occ;
+  out.value = lobe.closed.value - occ;
   if (gradient) {
-    out.dvalue_dlambda = ci.dlambda - docc_dl;
-    out.dvalue_dmu = ci.dc * n_ - docc_dmu;
+    out.dvalue_dlambda = lobe.closed.dlambda - docc_dl;
+    out.dvalue_dmu = lobe.closed.dc * n_ - docc_dmu;
   }
   return out;
 }
@@ -307,8 +380,12 @@ std::vector<Eigen::Vector3f> ExactVisibility::Render(const std::vector<Eigen::Ve
   SHADOWSG_CHECK(albedo.size() == points.size());
   const bool use_table = table && table->size() == points.size();
   std::vector<const SgLobe*> active;
+  std::vector<Lobe> prepared;
   for (const SgLobe& l : lighting.lobes)
-    if (!upper_hemisphere_only || l.axis.dot(n_) > 0) active.push_back(&l);
+    if (!upper_hemisphere_only || l.axis.dot(n_) > 0) {
+      active.push_back(&l);
+      prepared.push_back(Prepare(l.axis, l.sharpness));
+    }
   const long np = static_cast<long>(points.size());
   std::vector<Eigen::Vector3f> out(points.size(), Eigen::Vector3f::Zero());
   size_t rays = 0;
@@ -324,11 +401,11 @@ std::vector<Eigen::Vector3f> ExactVisibility::Render(const std::vector<Eigen::Ve
       OccludedView view;
       if (use_table) view = table->View(k);
       else {
-        BuildPoint(points[k], &s, &set, &rays);
+        BuildPoint(points[k], &s, &set, &rays, &prepared);
         view = set.View();
       }
       Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-      for (const SgLobe* l : active) sum += Shade(view, l->axis, l->sharpness, false).value * l->amplitude;
+      for (size_t j = 0; j < active.size(); ++j) sum += Shade(view, prepared[j], false).value * active[j]->amplitude;
       out[k] = (albedo[k].cast<double>().cwiseProduct(sum) / M_PI).cast<float>();
       if (!use_table && omp_get_thread_num() == 0 && k % 1024 == 0) {
         try {

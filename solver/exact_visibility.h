@@ -14,26 +14,34 @@
 //    90/rows degrees (default 1 degree); a ray is cast through the centre of
 //    every cell that a caster's bounding sphere could cover (the same culling
 //    as light_transport.h);
-//  - a cell whose 8 neighbours agree with it is wholly visible or wholly
-//    occluded (stored as one code); a cell on the silhouette is split into
-//    fine x fine sub-cells (default 4 x 4: 0.25 degree), each with its own ray,
-//    and its occluded sub-cells are stored;
-//  - the same set summed into super-cells of 2 x 2, 4 x 4 and 8 x 8 cells
-//    (weight and mean direction), for broader lobes.
+//  - the occluded cell centres (one code each), and the same summed into
+//    super-cells of 2 x 2, 4 x 4 and 8 x 8 cells (weight and mean direction),
+//    for broader lobes;
+//  - a cell whose 8 neighbours disagree with it is on the silhouette: it is
+//    split into fine x fine sub-cells (default 4 x 4: 0.25 degree), each with
+//    its own ray, for lobes sharper than ~50 (level 3 and 4 below); a wholly
+//    occluded cell counts as its centre (level 3) or all its sub-cells (4). The full-image render (streaming) casts sub-cell rays only
+//    where a sharp lobe of the lighting reaches, with the same result.
 //
 // A lobe is integrated on the coarsest level whose cell size h keeps
-// lambda h^2 <= 1/4 (the centroid rule is then good to ~1 %): 8-degree
-// super-cells up to lambda ~ 13, 4 up to 51, 2 up to 205, 1-degree cell
-// centres up to 821, and whole cells split into their sub-cells beyond (a
-// 1-degree cell would alias a sun of 0.8 degrees); see LevelSwitch. Only
-// directions within lambda (1 - w.mu) < 16 of the axis are summed (sharp
-// lobes visit only the grid rows there). The derivatives with respect to mu
-// (a free 3-vector at |mu| = 1) and lambda are exact for this quadrature.
-// Cost per (point, lobe): at most ~ 2 pi 16 / (1/4) ~ 400 terms.
+// lambda h^2 <= 1/4 (the centroid rule is then good to ~1 %): levels 0-2,
+// 8-, 4- and 2-degree super-cells, up to lambda ~ 13, 51 and 205; level 3,
+// 1-degree cell centres plus the silhouette's sub-cells, up to 821; level 4,
+// every occluded cell split into its sub-cells (a 1-degree cell would alias
+// a sun of 0.8 degrees); see LevelSwitch. Only directions within
+// lambda (1 - w.mu) < 16 of the axis are summed (sharp lobes visit only the
+// grid rows there). The derivatives with respect to mu (a free 3-vector at
+// |mu| = 1) and lambda are exact for this quadrature.
 //
-// Limits: an occluder thinner than one cell (1 degree seen from the point)
-// that falls between cell centres on both sides is missed; the silhouette is
-// resolved to the sub-cell (0.25 degree).
+// Rays: one per block of up to 4 x 4 cells first (blocks ~1/16 of the
+// caster's cone), cells only in blocks whose neighbourhood disagrees, sub-cells
+// only on the silhouette.
+//
+// Limits: an occluder thinner than one block (up to 4 degrees, about 1/16 of
+// the caster's size, seen from the point) can fall between the block rays
+// and be missed; the silhouette is resolved to the sub-cell (0.25 degree) for
+// lobes sharper than ~200 and to the cell (1 degree) below, where the lobe is
+// 4+ degrees wide.
 #pragma once
 
 #include <Eigen/Dense>
@@ -42,6 +50,7 @@
 #include <memory>
 #include <vector>
 
+#include "solver/cosine_integral.h"
 #include "solver/progress.h"
 #include "solver/ray_caster.h"
 #include "solver/scene.h"
@@ -121,9 +130,23 @@ class ExactVisibility {
   // Occluded sets of the points, multithreaded. `progress` may throw to cancel.
   OccludedTable Tabulate(const std::vector<Eigen::Vector3d>& points, const ProgressFn& progress = {}) const;
 
+  // What a lobe's shading shares over all points (the closed form C costs
+  // ~1000 times one point's sum): prepare once per lobe.
+  struct Lobe {
+    Eigen::Vector3d mu;
+    double lambda = 1;
+    CosineIntegral closed;
+    int level = 0;        // 0-2: super-cells (coarsest first), 3: cell centres, 4: sub-cells
+    uint32_t lo = 0, hi = 0;  // code range of the grid rows within the cutoff
+  };
+  Lobe Prepare(const Eigen::Vector3d& mu, double lambda) const;
+
   // Shading of a unit-amplitude lobe (per unit albedo/pi) over an occluded set,
   // with its derivatives when `gradient` (LobeShading::sigma is unused).
-  LobeShading Shade(const OccludedView& view, const Eigen::Vector3d& mu, double lambda, bool gradient) const;
+  LobeShading Shade(const OccludedView& view, const Lobe& lobe, bool gradient) const;
+  LobeShading Shade(const OccludedView& view, const Eigen::Vector3d& mu, double lambda, bool gradient) const {
+    return Shade(view, Prepare(mu, lambda), gradient);
+  }
 
   // Radiance albedo/pi * sum_i a_i S_i at every point. With a table of the
   // same points it is used; otherwise each point's set is built, used and
@@ -139,7 +162,11 @@ class ExactVisibility {
 
  private:
   struct Scratch;
-  void BuildPoint(const Eigen::Vector3d& p, Scratch* s, OccludedSet* out, size_t* rays) const;
+  // The occluded set of p; with `sharp`, sub-cell rays are cast only where
+  // one of these lobes can use them (Shade gives the same values for them).
+  void BuildPoint(const Eigen::Vector3d& p, Scratch* s, OccludedSet* out, size_t* rays,
+                  const std::vector<Lobe>* sharp = nullptr) const;
+  bool NeedsSubCells(uint32_t cell, const std::vector<Lobe>& sharp) const;
   Eigen::Vector3d Dir(double theta, double phi) const;
 
   std::shared_ptr<const RayCaster> casters_;

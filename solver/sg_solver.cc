@@ -141,8 +141,9 @@ struct Atom {
 void AtomColumn(const ShadowPlaneModel& model, const Eigen::MatrixXf& theta, const Atom& atom,
                 const Eigen::Vector3d& axis, float* out) {
   if (model.exact) {  // --visibility exact: the mesh's occluded cells (theta unused)
+    const ExactVisibility::Lobe lobe = model.exact->Prepare(axis, atom.lambda);
     for (size_t r = 0; r < model.points.size(); ++r)
-      out[r] = static_cast<float>(model.exact->Shade(model.exact_table->View(r), axis, atom.lambda, false).value);
+      out[r] = static_cast<float>(model.exact->Shade(model.exact_table->View(r), lobe, false).value);
     return;
   }
   const ProductLobe p = EvalProductLobe(axis, atom.lambda, model.normal, model.cosine);
@@ -187,6 +188,9 @@ class RefineCost final : public ceres::CostFunction {
     std::vector<float> caps;
     for (const ProductLobe& p : products) caps.push_back(VisibilityCap(p));
     if (!model_.exact) PlaneAngles(model_, axes, caps, &theta, &witness);
+    std::vector<ExactVisibility::Lobe> exact_lobes;
+    if (model_.exact)
+      for (int i = 0; i < lobes_; ++i) exact_lobes.push_back(model_.exact->Prepare(axes[i], lambda[i]));
     const long np = static_cast<long>(model_.points.size());
 #pragma omp parallel for schedule(static)
     for (long k = 0; k < np; ++k) {
@@ -204,7 +208,7 @@ class RefineCost final : public ceres::CostFunction {
                            model_.cap_occlusion ? model_.occluder_cos[k] : kNoOcclusionCap);
         };
         const LobeShading s =
-            model_.exact ? model_.exact->Shade(model_.exact_table->View(k), axes[j], lambda[j], jacobians != nullptr)
+            model_.exact ? model_.exact->Shade(model_.exact_table->View(k), exact_lobes[j], jacobians != nullptr)
                          : sphere_shade();
         sum += s.value * amp[j];
         if (!jacobians) continue;

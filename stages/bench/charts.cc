@@ -18,10 +18,12 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr const char* kPngTerminal = "pngcairo size 960,640 font 'sans,11'";
-constexpr const char* kSvgTerminal = "svg size 960,640 font 'sans,11' background rgb 'white'";
-constexpr const char* kStabilityPng = "pngcairo size 1200,760 font 'sans,10'";
-constexpr const char* kStabilitySvg = "svg size 1200,760 font 'sans,10' background rgb 'white'";
+// noenhanced: scene names hold underscores, which enhanced text would set as
+// subscripts.
+constexpr const char* kPngTerminal = "pngcairo noenhanced size 960,640 font 'sans,11'";
+constexpr const char* kSvgTerminal = "svg noenhanced size 960,640 font 'sans,11' background rgb 'white'";
+constexpr const char* kStabilityPng = "pngcairo noenhanced size 1200,760 font 'sans,10'";
+constexpr const char* kStabilitySvg = "svg noenhanced size 1200,760 font 'sans,10' background rgb 'white'";
 constexpr double kSamePointDb = 0.01;    // points closer than this (and at the same x) share a label
 constexpr double kPsnrAxisSpanDb = 25;   // the PSNR axis reaches at most this far below the best point
 
@@ -87,7 +89,6 @@ std::string Script(const std::string& stem, const std::string& body, const char*
   std::ostringstream s;
   s << "# Written by shadowsg bench; re-run with: gnuplot " << stem << ".gp (in this folder)\n"
     << "if (!exists('suffix')) suffix = ''\n"
-    << "set termoption noenhanced\n"
     << "set terminal " << png << "\nset output '" << stem << ".png'.suffix\n"
     << body << "unset output\n"
     << "set terminal " << svg << "\nset output '" << stem << ".svg'.suffix\n"
