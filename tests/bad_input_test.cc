@@ -41,21 +41,6 @@ void WriteText(const fs::path& p, const std::string& text) {
   std::ofstream(p, std::ios::binary) << text;
 }
 
-// The tiny scene every scene case starts from: 32x24, a sun and a sky lobe,
-// an icosphere resting on the plane.
-const char* kSpec = R"({
-  "format": "synth/1",
-  "camera": {"width": 32, "height": 24, "fov_deg": 50,
-             "look_from": [0.4, -2.0, 1.3], "look_at": [0, 0, 0.2]},
-  "plane": {"xyz": [0, 0, 0], "normal": [0, 0, 1], "scale": [4, 4, 1], "diffuse": [0.8, 0.8, 0.8]},
-  "objects": [{"mesh": {"primitive": "icosphere", "radius": 0.3, "subdivisions": 1},
-               "position": [0, 0, 0], "rest_on_plane": true}],
-  "lights": {"suns": [{"direction": [0.4, 0.2, 0.9], "irradiance": [3, 3, 2.5]}],
-             "lobes": [{"axis": [0, 0, 1], "sharpness": 2, "amplitude": [0.2, 0.3, 0.5]}]},
-  "render": {"spp": 2, "bounces": 1, "seed": 3},
-  "env_gt_height": 8
-})";
-
 const char* kLighting =
     R"({"format": "sg-lighting/1", "up": [0, 0, 1],
         "lobes": [{"axis": [0.4, 0.2, 0.9], "sharpness": 200, "amplitude": [30, 30, 25]},
@@ -97,7 +82,7 @@ class GoodInputs {
     fs::remove_all(root);
     fs::create_directories(root);
     // The scene, by the real binary.
-    WriteText(root / "spec.json", kSpec);
+    WriteText(root / "spec.json", testing::kTinySceneSpec);
     const CliRun r = RunCli({"synth", (root / "spec.json").string(), "--out", (root / "scene").string(), "--quiet",
                              "--threads", "2"},
                             root, 120);

@@ -20,6 +20,21 @@
 
 namespace shadowsg::testing {
 
+// A tiny synth/1 scene for tests that run the binary: 32x24, a sun and a
+// sky lobe, an icosphere resting on the plane (its shadow in view).
+inline constexpr const char* kTinySceneSpec = R"({
+  "format": "synth/1",
+  "camera": {"width": 32, "height": 24, "fov_deg": 50,
+             "look_from": [0.4, -2.0, 1.3], "look_at": [0, 0, 0.2]},
+  "plane": {"xyz": [0, 0, 0], "normal": [0, 0, 1], "scale": [4, 4, 1], "diffuse": [0.8, 0.8, 0.8]},
+  "objects": [{"mesh": {"primitive": "icosphere", "radius": 0.3, "subdivisions": 1},
+               "position": [0, 0, 0], "rest_on_plane": true}],
+  "lights": {"suns": [{"direction": [0.4, 0.2, 0.9], "irradiance": [3, 3, 2.5]}],
+             "lobes": [{"axis": [0, 0, 1], "sharpness": 2, "amplitude": [0.2, 0.3, 0.5]}]},
+  "render": {"spp": 2, "bounces": 1, "seed": 3},
+  "env_gt_height": 8
+})";
+
 struct CliRun {
   bool started = false;
   bool exited = false;   // normal exit (then `code`)

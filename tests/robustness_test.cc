@@ -31,20 +31,6 @@ using testing::ReadWholeFile;
 using testing::RunCli;
 using testing::TempDir;
 
-// The object and its shadow in view (interrupt test).
-const char* kSceneSpec = R"({
-  "format": "synth/1",
-  "camera": {"width": 32, "height": 24, "fov_deg": 50,
-             "look_from": [0.4, -2.0, 1.3], "look_at": [0, 0, 0.2]},
-  "plane": {"xyz": [0, 0, 0], "normal": [0, 0, 1], "scale": [4, 4, 1], "diffuse": [0.8, 0.8, 0.8]},
-  "objects": [{"mesh": {"primitive": "icosphere", "radius": 0.3, "subdivisions": 1},
-               "position": [0, 0, 0], "rest_on_plane": true}],
-  "lights": {"suns": [{"direction": [0.4, 0.2, 0.9], "irradiance": [3, 3, 2.5]}],
-             "lobes": [{"axis": [0, 0, 1], "sharpness": 2, "amplitude": [0.2, 0.3, 0.5]}]},
-  "render": {"spp": 2, "bounces": 1, "seed": 3},
-  "env_gt_height": 8
-})";
-
 // The camera looks at the plane 3 units from the object; the sun, low and
 // behind the camera's side, throws the object's shadow the other way, out of
 // view. The image says how much light there is, not where it comes from.
@@ -89,7 +75,7 @@ class Interrupt : public ::testing::TestWithParam<Interruption> {};
 
 TEST_P(Interrupt, LeavesEarlierOutputsIntactAndNoTemporaries) {
   TempDir tmp;
-  const fs::path scene = Synth(tmp, kSceneSpec, "scene");
+  const fs::path scene = Synth(tmp, testing::kTinySceneSpec, "scene");
   const fs::path out = tmp / "out";
   // Good outputs of an earlier (quick) run.
   const CliRun first = RunCli({"solve", scene.string(), "--out", out.string(), "--method", "ss03", "--map-height", "4",
@@ -130,7 +116,7 @@ INSTANTIATE_TEST_SUITE_P(Signals, Interrupt,
 // An interrupted render (the path tracer, many samples) over an earlier image.
 TEST(Interrupt, RenderKeepsTheEarlierImage) {
   TempDir tmp;
-  const fs::path scene = Synth(tmp, kSceneSpec, "scene");
+  const fs::path scene = Synth(tmp, testing::kTinySceneSpec, "scene");
   const fs::path out = tmp / "out" / "render.exr";
   const std::vector<std::string> base = {"render", scene.string(), "--lighting", (scene / "lights.json").string(),
                                          "--out", out.string(), "--quiet", "--threads", "2"};
