@@ -7,7 +7,8 @@ PKGS=(cmake ninja-build g++ pkg-config ccache
       nlohmann-json3-dev libcli11-dev libtinyobjloader-dev libraw-dev libapriltag-dev
       libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox colmap
       opencv-doc
-      clang libclang-rt-14-dev)  # libFuzzer (scripts/fuzz.sh)
+      clang libclang-rt-14-dev  # libFuzzer (scripts/fuzz.sh)
+      chromium)                 # bench --check-html: index.html in headless Chromium
 missing=()
 for p in "${PKGS[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -215,6 +215,22 @@ TEST_F(BenchTest, WritesTablesChartsAndAPageThatLinksOnlyExistingFiles) {
   const BenchSummary again = RunBench(o, QuietContext());
   EXPECT_EQ(again.reused, 6);
 
+  // The page renders in headless Chromium with every image decoded; a
+  // corrupt picture is reported (install-deps.sh installs chromium).
+  if (FindExecutable("chromium")) {
+    const fs::path shot = tmp / "shot.png";
+    EXPECT_NO_THROW(CheckHtmlInChromium(o.out_dir / "index.html", shot, QuietContext()));
+    EXPECT_GT(fs::file_size(shot), 1000u);
+    std::ofstream(o.out_dir / "runs" / "tiny" / "input.png", std::ios::trunc) << "not a png";
+    try {
+      CheckHtmlInChromium(o.out_dir / "index.html", shot, QuietContext());
+      ADD_FAILURE() << "a corrupt image passed the Chromium check";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("did not load"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("input.png"), std::string::npos) << e.what();
+    }
+  }
+
   if (!HaveGnuplot()) GTEST_SKIP() << "gnuplot not installed: charts not checked";
   for (const char* chart : {"time_psnr_tiny", "params_psnr_tiny"})
     for (const char* ext : {".png", ".svg", ".gp", ".dat"}) {
