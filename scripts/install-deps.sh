@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs the Debian packages shadowsg builds and runs with. Idempotent: does
+# Installs the Debian packages shadowsg builds and runs with, or the packages
+# named as arguments (scripts/install-workflow-deps.sh). Idempotent: does
 # nothing when everything is already installed.
 set -euo pipefail
 PKGS=(cmake ninja-build g++ pkg-config ccache
@@ -9,15 +10,17 @@ PKGS=(cmake ninja-build g++ pkg-config ccache
       opencv-doc
       clang libclang-rt-14-dev  # libFuzzer (scripts/fuzz.sh)
       chromium)                 # bench --check-html: index.html in headless Chromium
+[ $# -gt 0 ] && PKGS=("$@")
+name=${INSTALL_DEPS_NAME:-install-deps}
 missing=()
 for p in "${PKGS[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
 if [ ${#missing[@]} -eq 0 ]; then
-  echo "install-deps: all ${#PKGS[@]} packages present"
+  echo "$name: all ${#PKGS[@]} packages present"
   exit 0
 fi
-echo "install-deps: installing ${missing[*]}"
+echo "$name: installing ${missing[*]}"
 SUDO=""
 [ "$(id -u)" -eq 0 ] || SUDO="sudo"
 export DEBIAN_FRONTEND=noninteractive
