@@ -240,6 +240,9 @@ TEST_F(BenchTest, WritesTablesChartsAndAPageThatLinksOnlyExistingFiles) {
     }
   EXPECT_NE(html.find("charts/time_psnr_tiny.png"), std::string::npos);
   EXPECT_NE(ReadText(o.out_dir / "charts" / "time_psnr_tiny.svg").find("<svg"), std::string::npos);
+  // Scene names are drawn as written: gnuplot's enhanced text would set the
+  // underscore of "pub_torus_sunsky" as a subscript.
+  EXPECT_NE(ReadText(o.out_dir / "charts" / "time_psnr_tiny.gp").find("noenhanced"), std::string::npos);
 }
 
 TEST_F(BenchTest, MissingLinksFindsBrokenRelativeLinks) {
