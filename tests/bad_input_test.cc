@@ -426,6 +426,14 @@ std::vector<Case> Cases() {
        Write("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float "
              "z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\nnan 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"),
        "", ""},
+      {"ply_nan_list_count", "spheretree-ply", "tet.ply",
+       // Binary: the count is a float NaN (0x7fc00000) after three zero vertices.
+       Write("ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty "
+             "float z\nelement face 1\nproperty list float int vertex_indices\nend_header\n" +
+             std::string(36, '\0') + std::string("\0\0\xc0\x7f", 4)),
+       "", "list length"},
+      {"ply_propertyless_element", "spheretree-ply", "tet.ply",
+       Write("ply\nformat binary_little_endian 1.0\nelement junk 1666666606\nend_header\n"), "", "no properties"},
       // lighting.json (eval reads it first; render too)
       {"lighting_missing", "eval", "lighting.json", Remove(), "", "not found"},
       {"lighting_empty", "eval", "lighting.json", Empty(), "", "empty"},

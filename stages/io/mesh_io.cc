@@ -177,6 +177,10 @@ TriangleMesh ReadPly(std::istream& in, const std::string& name) {
   if (!header_done) throw InputError(name, "PLY header has no end_header");
   TriangleMesh mesh;
   for (const auto& e : elements) {
+    // A binary row of no properties reads no bytes, so a huge count would spin
+    // without ever reaching the end of the file.
+    if (e.props.empty() && e.count > 0)
+      throw InputError(name, "PLY element '" + e.name + "' has " + std::to_string(e.count) + " rows but no properties");
     for (long i = 0; i < e.count; ++i) {
       std::vector<double> scalars;
       std::vector<long> list;
@@ -195,7 +199,9 @@ TriangleMesh ReadPly(std::istream& in, const std::string& name) {
       for (const auto& p : e.props) {
         if (!p.count_type.empty()) {
           const double n = next(p.count_type);
-          if (n < 0 || n > 1024) throw InputError(name, "PLY list of unreasonable length");
+          // Written so that NaN fails too: a float count type can carry one.
+          if (!(n >= 0 && n <= 1024) || n != std::floor(n))
+            throw InputError(name, "PLY list length " + std::to_string(n) + " is not a count from 0 to 1024");
           const bool indices = p.name == "vertex_indices" || p.name == "vertex_index";
           std::vector<long> vals;
           for (int k = 0; k < static_cast<int>(n); ++k) {
