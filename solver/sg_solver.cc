@@ -18,23 +18,26 @@ namespace shadowsg {
 
 SgSolverOptions SgSolverOptions::Budget(const std::string& name) {
   SgSolverOptions o;
+  o.fit_pixels = 6000;
+  o.holdout_pixels = 2000;
+  o.max_lobes = 16;
+  o.path_refine_iterations = 8;
   if (name == "fast") {
     o.dictionary_axes = 160;
     o.sharpness = {0.5, 4, 15, 60, 250};
-    o.fit_pixels = 6000;
-    o.holdout_pixels = 2000;
-    o.max_lobes = 16;
     o.refine_iterations = 8;
-    o.path_refine_iterations = 4;
-  } else if (name == "best") {
-    o.dictionary_axes = 600;
-    o.sharpness = {0.5, 1.5, 4, 8, 16, 32, 64, 128, 256, 600};
-    o.fit_pixels = 40000;
-    o.holdout_pixels = 10000;
-    o.max_lobes = 48;
-    o.refine_iterations = 50;
-    o.path_refine_iterations = 12;
+    return o;
   }
+  // Restarts (fresh fit pixels, one shared held-out set) beat more pixels:
+  // the former balanced preset (one fit of 16384 pixels, projected line
+  // search) took 13-21 s a scene on one thread and did no better. The finer
+  // dictionary decides the basin on the closed-form three-lobe scene (95 dB
+  // against 44 with the fast one).
+  o.restarts = 3;
+  o.refine_iterations = 25;
+  // Longer LM runs on the size path find pub_torus_sunrise's sharp low sun
+  // more often (34.2 dB against 32.5-33.4).
+  if (name == "best") o.path_refine_iterations = 30;
   return o;
 }
 
@@ -52,6 +55,7 @@ bool SgSolverOptions::IsValid(std::string* error) const {
   if (fit_pixels < 16 || holdout_pixels < 16) return fail("fit and held-out sets need >= 16 pixels");
   if (!(size_tolerance >= 0)) return fail("size_tolerance must be >= 0");
   if (refine_iterations < 0) return fail("refine_iterations must be >= 0");
+  if (restarts < 1) return fail("restarts must be >= 1");
   return true;
 }
 
@@ -79,22 +83,31 @@ constexpr double kShadowEmphasis = 4.0;
 template <typename T>
 std::vector<T> Gather(const std::vector<T>& v, const std::vector<size_t>& idx);
 
-struct PixelSets {
-  std::vector<size_t> fit, holdout;
-  std::vector<double> weight;  // per fit pixel, mean 1
+// Held-out pixels: uniform without replacement, shared by every restart so
+// their errors compare; the rest is where fit sets are drawn from.
+struct HeldOut {
+  std::vector<size_t> holdout, rest;
 };
 
-PixelSets SamplePixels(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3f>& targets,
-                       const SgSolverOptions& o, std::mt19937_64& rng) {
-  const size_t n = model.points.size();
-  PixelSets s;
-  // Held-out: uniform without replacement.
+HeldOut SampleHoldout(size_t n, const SgSolverOptions& o, std::mt19937_64& rng) {
   std::vector<size_t> all(n);
   std::iota(all.begin(), all.end(), 0);
   std::shuffle(all.begin(), all.end(), rng);
   const size_t nh = std::min<size_t>(o.holdout_pixels, n / 5 + 1);
-  s.holdout.assign(all.begin(), all.begin() + nh);
-  std::vector<size_t> rest(all.begin() + nh, all.end());
+  return {std::vector<size_t>(all.begin(), all.begin() + nh), std::vector<size_t>(all.begin() + nh, all.end())};
+}
+
+struct FitSet {
+  std::vector<size_t> fit;
+  std::vector<double> weight;  // per fit pixel, mean 1
+};
+
+// A fit set drawn from `rest` (in its shuffled order) with probability
+// rising with how far a pixel is from the lit plane level.
+FitSet SampleFit(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3f>& targets,
+                 std::vector<size_t> rest, const SgSolverOptions& o, std::mt19937_64& rng) {
+  std::shuffle(rest.begin(), rest.end(), rng);
+  FitSet s;
   // Lit level: a high percentile of the albedo-normalised radiance.
   std::vector<double> level(rest.size());
   for (size_t k = 0; k < rest.size(); ++k) {
@@ -353,8 +366,8 @@ std::vector<SgLobe> MergeLobes(std::vector<SgLobe> lobes, double overlap) {
 // Levenberg-Marquardt of every lobe of *lighting over the points of `model`;
 // drops lobes whose amplitude reaches 0. Returns the iterations run.
 int RefineLobes(const ShadowPlaneModel& model, const std::vector<double>& weight,
-                const std::vector<Eigen::Vector3f>& targets, int iterations, SgLighting* lighting,
-                const ProgressFn* progress) {
+                const std::vector<Eigen::Vector3f>& targets, int iterations, bool line_search,
+                SgLighting* lighting, const ProgressFn* progress) {
   if (iterations <= 0 || lighting->lobes.empty()) return 0;
   const int L = static_cast<int>(lighting->lobes.size());
   std::vector<double> params(7 * L);
@@ -380,6 +393,11 @@ int RefineLobes(const ShadowPlaneModel& model, const std::vector<double>& weight
   so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
   so.max_num_iterations = iterations;
   so.num_threads = 1;  // the cost function is parallel inside
+  // With bounds Ceres follows each step by a projected line search whose
+  // every trial evaluates the full Jacobian: 60 % of the fast budget's time,
+  // for no systematic gain (measured over four scenes x three seeds); bounds
+  // are still kept, by projection.
+  if (!line_search) so.max_num_line_search_step_size_iterations = 0;
   so.logging_type = ceres::SILENT;
   std::unique_ptr<ProgressCallback> cb;
   if (progress) {
@@ -409,21 +427,23 @@ int RefineLobes(const ShadowPlaneModel& model, const std::vector<double>& weight
   return static_cast<int>(s.iterations.size());
 }
 
-}  // namespace
-
-SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3f>& targets,
-                   const SgSolverOptions& o, SgSolverSummary* summary, const ProgressFn& progress) {
-  const auto start = Clock::now();
+struct FitResult {
+  SgLighting lighting;
   SgSolverSummary sum;
-  std::mt19937_64 rng(o.seed);
-  const PixelSets sets = SamplePixels(model, targets, o, rng);
-  const size_t nf = sets.fit.size(), nh = sets.holdout.size();
+  double heldout_mse = 0;
+};
+
+// One fit from one fit set: dictionary, sparse fit, size path, refinement.
+FitResult FitOnce(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3f>& targets, const FitSet& sets,
+                  const ShadowPlaneModel& hold_model, const std::vector<Eigen::Vector3f>& hold_targets,
+                  double signal, const std::vector<Eigen::Vector3d>& axes, const SgSolverOptions& o,
+                  const ProgressFn& progress) {
+  SgSolverSummary sum;
+  const size_t nf = sets.fit.size();
 
   // theta for every (pixel, dictionary axis) once.
   auto t0 = Clock::now();
-  const std::vector<Eigen::Vector3d> axes = FibonacciHemisphereAxes(o.dictionary_axes, model.normal);
   const ShadowPlaneModel fit_model = Subset(model, sets.fit);
-  const ShadowPlaneModel hold_model = Subset(model, sets.holdout);
   Eigen::MatrixXf theta_fit;
   if (!model.exact) fit_model.cones.Angles(axes, &theta_fit, nullptr);
   sum.theta_seconds = Since(t0);
@@ -451,7 +471,6 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
     }
   }
   const Eigen::VectorXf wmean = W.rowwise().mean();
-  (void)nh;
   // Column norms under the mean weight, for the selection score.
   Eigen::VectorXf col_norm2(na);
   for (long j = 0; j < na; ++j) col_norm2[j] = std::max(1e-30f, (G.col(j).array().square() * wmean.array()).sum());
@@ -528,8 +547,9 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
     lighting.lobes.push_back(merged[k]);
     // Lobes not yet in the model carry light the refinement must not miss:
     // the first ones absorb it, later ones give it back.
-    RefineLobes(fit_model, sets.weight, fit_targets, o.path_refine_iterations, &lighting, nullptr);
-    const double mse = WeightedMse(hold_model, lighting, {}, Gather(targets, sets.holdout));
+    RefineLobes(fit_model, sets.weight, fit_targets, o.path_refine_iterations, o.bounded_line_search, &lighting,
+                nullptr);
+    const double mse = WeightedMse(hold_model, lighting, {}, hold_targets);
     path.push_back(lighting);
     path_mse.push_back(mse);
     if (mse < best_mse * (1 - o.improvement)) best_mse = mse, since_best = 0;
@@ -545,9 +565,6 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   size_t chosen = path.size() - 1;
   if (o.lobes == 0) {
     const double best = *std::min_element(path_mse.begin(), path_mse.end());
-    double signal = 0;
-    for (size_t i : sets.holdout) signal += targets[i].cast<double>().squaredNorm() / 3;
-    signal /= std::max<size_t>(1, sets.holdout.size());
     for (size_t s = 0; s < path_mse.size(); ++s)
       if (path_mse[s] <= best * (1 + o.size_tolerance) + kSizeNoiseFloor * signal) {
         chosen = s;
@@ -560,16 +577,73 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
 
   // Final joint refinement of the chosen model.
   t0 = Clock::now();
-  sum.refine_iterations = RefineLobes(fit_model, sets.weight, Gather(targets, sets.fit), o.refine_iterations,
-                                      &lighting, &progress);
+  sum.refine_iterations = RefineLobes(fit_model, sets.weight, fit_targets, o.refine_iterations,
+                                      o.bounded_line_search, &lighting, &progress);
   sum.refine_seconds = Since(t0);
   sum.fit_mse_refined = WeightedMse(fit_model, lighting, sets.weight, Gather(targets, sets.fit));
   sum.invalid_lobes_removed = RemoveInvalidLobes(&lighting);
   sum.lobes_kept = static_cast<int>(lighting.lobes.size());
+  FitResult r;
+  r.heldout_mse = lighting.lobes.empty() ? std::numeric_limits<double>::infinity()
+                                         : WeightedMse(hold_model, lighting, {}, hold_targets);
+  r.lighting = std::move(lighting);
+  r.sum = sum;
+  return r;
+}
+
+}  // namespace
+
+SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3f>& targets,
+                   const SgSolverOptions& o, SgSolverSummary* summary, const ProgressFn& progress) {
+  const auto start = Clock::now();
+  std::mt19937_64 rng(o.seed);
+  const HeldOut ho = SampleHoldout(model.points.size(), o, rng);
+  const ShadowPlaneModel hold_model = Subset(model, ho.holdout);
+  const std::vector<Eigen::Vector3f> hold_targets = Gather(targets, ho.holdout);
+  double signal = 0;
+  for (const Eigen::Vector3f& t : hold_targets) signal += t.cast<double>().squaredNorm() / 3;
+  signal /= std::max<size_t>(1, hold_targets.size());
+  const std::vector<Eigen::Vector3d> axes = FibonacciHemisphereAxes(o.dictionary_axes, model.normal);
+
+  // Restarts differ in their fit pixels only. Which local minimum the size
+  // path reaches depends on them (pub_torus_sunrise: 32.4-34.2 dB over three
+  // draws), and the shared held-out set tells the better one.
+  std::vector<FitResult> fits;
+  for (int r = 0; r < o.restarts; ++r) {
+    ProgressFn sub;
+    if (progress)
+      sub = [&, r](double f, const std::string& status) {
+        progress((r + f) / o.restarts,
+                 o.restarts > 1 ? "fit " + std::to_string(r + 1) + "/" + std::to_string(o.restarts) + ": " + status
+                                : status);
+      };
+    const FitSet sets = SampleFit(model, targets, ho.rest, o, rng);
+    fits.push_back(FitOnce(model, targets, sets, hold_model, hold_targets, signal, axes, o, sub));
+  }
+  // The lowest held-out error, or a smaller model within tolerance of it.
+  size_t best = 0;
+  for (size_t r = 1; r < fits.size(); ++r)
+    if (fits[r].heldout_mse < fits[best].heldout_mse) best = r;
+  size_t chosen = best;
+  const double limit = fits[best].heldout_mse * (1 + o.size_tolerance) + kSizeNoiseFloor * signal;
+  for (size_t r = 0; r < fits.size(); ++r)
+    if (fits[r].heldout_mse <= limit && fits[r].sum.lobes_kept < fits[chosen].sum.lobes_kept) chosen = r;
+  if (fits[chosen].lighting.lobes.empty())
+    throw std::runtime_error("sg: no lobe lowers the error (is the plane lit at all?)");
+
+  SgSolverSummary sum = fits[chosen].sum;
+  sum.theta_seconds = sum.select_seconds = sum.refine_seconds = 0;
+  for (const FitResult& f : fits) {
+    sum.theta_seconds += f.sum.theta_seconds;
+    sum.select_seconds += f.sum.select_seconds;
+    sum.refine_seconds += f.sum.refine_seconds;
+    sum.restart_heldout_mse.push_back(f.heldout_mse);
+  }
+  sum.restart_chosen = static_cast<int>(chosen);
   sum.seconds = Since(start);
   Report(progress, 1.0, std::to_string(sum.lobes_kept) + " lobes");
   if (summary) *summary = sum;
-  return lighting;
+  return fits[chosen].lighting;
 }
 
 }  // namespace shadowsg

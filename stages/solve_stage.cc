@@ -129,6 +129,8 @@ LightingEstimate SolveWithSg(Scene& scene, const fs::path& scene_dir, const Plan
                    {"fit_mse_refined", summary.fit_mse_refined},
                    {"refine_iterations", summary.refine_iterations},
                    {"invalid_lobes_removed", summary.invalid_lobes_removed},
+                   {"restart_heldout_mse", summary.restart_heldout_mse},
+                   {"restart_chosen", summary.restart_chosen},
                    {"theta_seconds", summary.theta_seconds},
                    {"select_seconds", summary.select_seconds},
                    {"refine_seconds", summary.refine_seconds},
