@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "solver/sg_paper_solver.h"
@@ -79,6 +80,41 @@ TEST(SgSolver, ForcedLobeCountAndDeterminism) {
   EXPECT_LE(a.lobes.size(), 2u);
   ASSERT_EQ(a.lobes.size(), b.lobes.size());
   for (size_t i = 0; i < a.lobes.size(); ++i) EXPECT_EQ(a.lobes[i].axis, b.lobes[i].axis);
+}
+
+// Restarts share one held-out set: the kept fit is the one with the lowest
+// held-out error, or a smaller one within the size tolerance. Without the
+// projected line search Ceres must still keep the bounds.
+TEST(SgSolver, RestartsKeepTheBestHeldOutFitWithinBounds) {
+  ShadowPlaneModel model = TestPlaneModel(48, CosineModel::kExact);
+  model.upper_hemisphere_only = false;
+  const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, Cases()[1].truth);
+  SgSolverOptions o = SgSolverOptions::Budget("fast");
+  o.restarts = 3;
+  o.seed = 11;
+  SgSolverSummary s;
+  const SgLighting est = SolveSg(model, targets, o, &s);
+  ASSERT_EQ(s.restart_heldout_mse.size(), 3u);
+  ASSERT_GE(s.restart_chosen, 0);
+  ASSERT_LT(s.restart_chosen, 3);
+  const double best = *std::min_element(s.restart_heldout_mse.begin(), s.restart_heldout_mse.end());
+  EXPECT_LE(s.restart_heldout_mse[s.restart_chosen], best * (1 + o.size_tolerance) + 1e-9);
+  EXPECT_EQ(static_cast<int>(est.lobes.size()), s.lobes_kept);
+  // The restarts drew different fit pixels: their errors are not all equal.
+  EXPECT_NE(s.restart_heldout_mse[0], s.restart_heldout_mse[1]);
+  for (const SgLobe& l : est.lobes) {
+    EXPECT_GE(l.amplitude.minCoeff(), 0.0);
+    EXPECT_GE(l.sharpness, 0.05 * (1 - 1e-9));
+    EXPECT_LE(l.sharpness, 5000 * (1 + 1e-9));
+  }
+  // One restart of the same seed is a different (first) draw of the same
+  // held-out set, and never better on it than the best of three.
+  SgSolverOptions one = o;
+  one.restarts = 1;
+  SgSolverSummary s1;
+  SolveSg(model, targets, one, &s1);
+  ASSERT_EQ(s1.restart_heldout_mse.size(), 1u);
+  EXPECT_DOUBLE_EQ(s1.restart_heldout_mse[0], s.restart_heldout_mse[0]);
 }
 
 TEST(SgPaper, ReducesLossPrunesAndIsDeterministic) {
