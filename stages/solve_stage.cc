@@ -110,6 +110,7 @@ LightingEstimate SolveWithSg(Scene& scene, const fs::path& scene_dir, const Plan
   if (o.visibility == "exact") model.exact = MakeExactVisibility(scene);
   SgSolverOptions so = SgSolverOptions::Budget(o.budget);
   so.lobes = o.lobes;
+  if (o.restarts > 0) so.restarts = o.restarts;
   so.seed = ctx.seed;
   std::string error;
   if (!so.IsValid(&error)) throw InputError("", error);
@@ -122,6 +123,7 @@ LightingEstimate SolveWithSg(Scene& scene, const fs::path& scene_dir, const Plan
   Stopwatch render_clock;
   CompleteSgEstimate(model, &est);
   est.extra = Json{{"budget", o.budget},
+                   {"restarts", so.restarts},
                    {"visibility", o.visibility},
                    {"render_seconds", render_clock.Seconds()},
                    {"heldout_mse_path", summary.heldout_mse},

@@ -13,6 +13,7 @@ struct SolveOptions {
   std::string method = "sg";         // sg | sg-paper | ss03 | ss03+ | sh21
   int lobes = 0;                     // sg: 0 = chosen by the solver; sg-paper: initial lobes (256)
   std::string budget = "balanced";   // sg: fast | balanced | best
+  int restarts = 0;                  // sg: fits from fresh pixels (0: the budget's)
   int steps = -1;                    // sg-paper: Adam steps (-1: the published 20000)
   int map_height = 16;               // baselines: map rows over the hemisphere
   bool estimate_albedo = false;      // sh21: estimate the plane albedo scale jointly
