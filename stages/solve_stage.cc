@@ -7,6 +7,7 @@
 #include "calib/error.h"
 #include "solver/baselines.h"
 #include "solver/exact_visibility.h"
+#include "solver/lit_plane_trend.h"
 #include "solver/metrics.h"
 #include "solver/plane_pixels.h"
 #include "solver/sg_paper_solver.h"
@@ -68,6 +69,15 @@ double InformativeSkyShare(const Scene& scene, const PlanePixels& pixels, const 
     if (shadowed[d] > 0 && shadowed[d] < sampled) informative += weight[d];
   }
   return total > 0 ? informative / total : 0;
+}
+
+// The lit plane's irradiance trend across the view (solver/lit_plane_trend.h).
+LitPlaneTrend LitTrend(const Scene& scene, const PlanePixels& pixels) {
+  std::vector<double> irradiance(pixels.size());
+  for (size_t i = 0; i < pixels.size(); ++i)
+    irradiance[i] = scene.image.rgb(pixels.pixel[i]).cast<double>().sum() /
+                    std::max(1e-12, PlaneAlbedo(scene.plane, pixels.point[i]).sum());
+  return MeasureLitPlaneTrend(pixels.point, scene.plane.normal, irradiance);
 }
 
 std::vector<Eigen::Vector3f> Targets(const Scene& scene, const PlanePixels& pixels) {
@@ -184,6 +194,15 @@ void RunSolve(const fs::path& scene_dir, const fs::path& out_dir, const SolveOpt
   else if (informative < 0.25)
     ctx.Warn("the visible shadow constrains only " + std::to_string(static_cast<int>(std::lround(100 * informative))) +
              " % of the sky (cosine-weighted): light from the rest is known in total only");
+  const LitPlaneTrend trend = LitTrend(scene, pixels);
+  if (trend.ratio > kNearLightTrend) {
+    char msg[256];
+    std::snprintf(msg, sizeof(msg),
+                  "the lit plane's brightness changes %.1fx across the view: a light close to the scene? Distant "
+                  "lighting (every method here) cannot reproduce that falloff; expect a poor fit",
+                  trend.ratio);
+    ctx.Warn(msg);
+  }
   LightingEstimate est;
   if (o.method == "sg-paper") est = SolveWithSgPaper(scene, scene_dir, pixels, o, ctx);
   else if (o.method == "sg") est = SolveWithSg(scene, scene_dir, pixels, o, ctx);
@@ -194,6 +213,7 @@ void RunSolve(const fs::path& scene_dir, const fs::path& out_dir, const SolveOpt
   if (const int bad = est.extra.value("invalid_texels", 0); bad > 0)
     ctx.Warn(o.method + ": " + std::to_string(bad) + " non-finite env-map values were set to 0");
   est.extra["informative_sky_share"] = informative;
+  est.extra["lit_plane_trend"] = trend.ratio;
   if (o.score_exact && est.sg) {
     // The same lighting rendered with the meshes' exact visibility: compares
     // --visibility modes (and methods) under one renderer.
