@@ -483,6 +483,8 @@ std::vector<Case> Cases() {
       {"png_empty", "linearize-png", "photo.png", Empty(), "", "empty"},
       {"png_truncated", "linearize-png", "photo.png", Truncate(0.5), "", ""},
       {"png_garbage", "linearize-png", "photo.png", Garbage(1000), "", "unreadable"},
+      // A DICOM preamble: OpenCV's content sniffing would hand it to GDCM, which aborts.
+      {"png_is_dicom", "linearize-png", "photo.png", Write(std::string(128, ',') + "DICMv"), "", "not a PNG or JPEG"},
       {"png_all_black", "linearize-png", "photo.png", WriteImage(16, 12, 0.0f, false), "", "black"},
       {"png_saturated", "linearize-png", "photo.png", WriteImage(16, 12, 1.0f, false), "", "saturated"},
       {"png_is_a_folder", "linearize-png", "photo.png", [](const fs::path& f) {

@@ -156,10 +156,12 @@ bool ExrIsLatLong(const fs::path& path) {
 
 namespace {
 
-// libpng and libjpeg report a cut-off file on stderr themselves (and libjpeg
-// then decodes the part it has); a PNG must end with its IEND chunk, a JPEG
-// with an end-of-image marker, which we check first.
-void CheckLdrComplete(const std::vector<unsigned char>& b, const fs::path& path) {
+// Only PNG and JPEG get to OpenCV: imdecode picks a decoder by content, and
+// some of those (GDCM's DICOM reader) abort the process on bad input (a
+// fuzzer finding). libpng and libjpeg report a cut-off file on stderr
+// themselves (and libjpeg then decodes the part it has); a PNG must end with
+// its IEND chunk, a JPEG with an end-of-image marker, which we check first.
+void CheckPngOrJpeg(const std::vector<unsigned char>& b, const fs::path& path) {
   auto tail_has = [&](const std::string& what, size_t tail) {
     const size_t from = b.size() > tail ? b.size() - tail : 0;
     return std::search(b.begin() + static_cast<long>(from), b.end(), what.begin(), what.end(),
@@ -170,6 +172,8 @@ void CheckLdrComplete(const std::vector<unsigned char>& b, const fs::path& path)
     if (!tail_has("IEND", 64)) throw InputError(path.string(), "truncated PNG (no IEND chunk at the end)");
   } else if (b.size() >= 2 && b[0] == 0xFF && b[1] == 0xD8) {
     if (!tail_has("\xFF\xD9", 4096)) throw InputError(path.string(), "truncated JPEG (no end-of-image marker)");
+  } else {
+    throw InputError(path.string(), "unreadable image: not a PNG or JPEG file (no PNG or JPEG signature)");
   }
 }
 
@@ -183,7 +187,7 @@ Image ReadLdr(const fs::path& path) {
     if (!in) throw InputError(path.string(), "cannot open file");
     bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
   }
-  CheckLdrComplete(bytes, path);
+  CheckPngOrJpeg(bytes, path);
   cv::Mat m;
   try {
     m = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
