@@ -7,7 +7,7 @@
 #include "calib/error.h"
 #include "solver/baselines.h"
 #include "solver/exact_visibility.h"
-#include "solver/lit_plane_trend.h"
+#include "solver/observability.h"
 #include "solver/metrics.h"
 #include "solver/plane_pixels.h"
 #include "solver/sg_paper_solver.h"
@@ -37,41 +37,7 @@ std::string SolveOptions::Validate() const {
 
 namespace {
 
-// Which share of the sky (cosine-weighted, over the plane's hemisphere) the
-// observation says anything about the direction of: a direction tells only
-// when it shadows some of the visible plane pixels and not others. Light from
-// elsewhere is known in total only (any mix of such directions renders the
-// same image). 1024 directions x at most 512 plane pixels.
-double InformativeSkyShare(const Scene& scene, const PlanePixels& pixels, const RayCaster& casters) {
-  const Eigen::Vector3d n = scene.plane.normal.normalized();
-  const Eigen::Vector3d t = (std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY()).cross(n).normalized();
-  const Eigen::Vector3d b = n.cross(t);
-  constexpr int kDirs = 1024;
-  std::vector<Eigen::Vector3d> dirs;
-  std::vector<double> weight;
-  const double golden = M_PI * (3 - std::sqrt(5.0));
-  for (int i = 0; i < kDirs; ++i) {  // Fibonacci points, uniform in solid angle over the hemisphere
-    const double z = 1 - (i + 0.5) / kDirs, r = std::sqrt(std::max(0.0, 1 - z * z)), phi = golden * i;
-    dirs.push_back(r * std::cos(phi) * t + r * std::sin(phi) * b + z * n);
-    weight.push_back(z);
-  }
-  const size_t stride = std::max<size_t>(1, pixels.size() / 512);
-  std::vector<int> shadowed(kDirs, 0);
-  int sampled = 0;
-  std::vector<char> visible;
-  for (size_t i = 0; i < pixels.size(); i += stride, ++sampled) {
-    casters.Visible(pixels.point[i], dirs, 1e-6, &visible);
-    for (int d = 0; d < kDirs; ++d) shadowed[d] += !visible[d];
-  }
-  double informative = 0, total = 0;
-  for (int d = 0; d < kDirs; ++d) {
-    total += weight[d];
-    if (shadowed[d] > 0 && shadowed[d] < sampled) informative += weight[d];
-  }
-  return total > 0 ? informative / total : 0;
-}
-
-// The lit plane's irradiance trend across the view (solver/lit_plane_trend.h).
+// The lit plane's irradiance trend across the view (solver/observability.h).
 LitPlaneTrend LitTrend(const Scene& scene, const PlanePixels& pixels) {
   std::vector<double> irradiance(pixels.size());
   for (size_t i = 0; i < pixels.size(); ++i)
@@ -187,7 +153,7 @@ void RunSolve(const fs::path& scene_dir, const fs::path& out_dir, const SolveOpt
                      "no shadow-plane pixels: the camera does not see the plane rectangle (or the mask excludes it)");
   ctx.Log("solve: " + scene.name + ", " + std::to_string(pixels.size()) + " plane pixels, method " + o.method +
           ", " + std::to_string(ctx.threads) + " threads");
-  const double informative = InformativeSkyShare(scene, pixels, casters);
+  const double informative = InformativeSkyShare(scene.plane.normal, pixels.point, casters);
   if (informative == 0)
     ctx.Warn("no visible plane pixel is in the object's shadow from any direction: the image fixes the total light, "
              "not where it comes from (the estimate is one of many that render the same)");

@@ -1,4 +1,5 @@
-#include "solver/lit_plane_trend.h"
+#include "solver/observability.h"
+#include "solver/primitives.h"
 
 #include <gtest/gtest.h>
 
@@ -64,6 +65,32 @@ TEST(LitPlaneTrend, TooFewOrNonFinitePixelsGiveNoAnswer) {
   pts.assign(100, Eigen::Vector3d::Zero());
   e.assign(100, std::nan(""));
   EXPECT_EQ(MeasureLitPlaneTrend(pts, Eigen::Vector3d::UnitZ(), e).ratio, 0);
+}
+
+// A ball on the plane: plane points near it are shadowed from some directions
+// and not others; points far away see (almost) the whole sky; no points, no
+// answer.
+TEST(InformativeSkyShare, OnlyDirectionsThatSplitThePointsCount) {
+  RayCaster ball;
+  TriangleMesh m = MakeIcosphere(0.5, 3);
+  for (Eigen::Vector3d& v : m.vertices) v.z() += 0.5;
+  ball.AddMesh(m);
+  ball.Commit();
+  const Eigen::Vector3d n = Eigen::Vector3d::UnitZ();
+  std::vector<Eigen::Vector3d> near, far;
+  for (int i = 0; i < 64; ++i) {
+    const double a = 2 * M_PI * i / 64;
+    near.emplace_back(0.8 * std::cos(a), 0.8 * std::sin(a), 0);
+    far.emplace_back(50 + std::cos(a), std::sin(a), 0);
+  }
+  const double share = InformativeSkyShare(n, near, ball);
+  EXPECT_GT(share, 0.05);
+  EXPECT_LT(share, 0.9);
+  // Far away the ball hides only grazing directions (cosine weight ~0).
+  EXPECT_LT(InformativeSkyShare(n, far, ball), 1e-4);
+  EXPECT_EQ(InformativeSkyShare(n, {}, ball), 0.0);
+  // One point cannot be split: every direction shadows all or none of it.
+  EXPECT_EQ(InformativeSkyShare(n, {near[0]}, ball), 0.0);
 }
 
 }  // namespace

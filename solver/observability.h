@@ -1,4 +1,10 @@
-// Does distant lighting explain the lit plane at all? Under distant light the
+// What an observation can tell about the lighting, measured before solving so
+// that solve can warn instead of leaving users with an unexplained bad fit.
+//
+// Informative sky share: a direction of the sky says where light comes from
+// only if it shadows some visible plane pixels and not others.
+//
+// Lit-plane trend: does distant lighting explain the lit plane at all? Under distant light the
 // irradiance of the plane where nothing is in the way is one value; a light
 // close to the scene (a lamp, a window a metre away) makes it fall off across
 // the view, which no SG mixture or env map can reproduce (method-notes.md:
@@ -10,7 +16,17 @@
 
 #include <Eigen/Core>
 
+#include "solver/ray_caster.h"
+
 namespace shadowsg {
+
+// Which share of the sky (cosine-weighted, over the plane's hemisphere) the
+// observation says anything about the direction of: a direction tells only
+// when it shadows some of the plane points and not others. Light from
+// elsewhere is known in total only (any mix of such directions renders the
+// same image). 1024 directions x at most 512 of the points.
+double InformativeSkyShare(const Eigen::Vector3d& plane_normal, const std::vector<Eigen::Vector3d>& points,
+                           const RayCaster& casters);
 
 struct LitPlaneTrend {
   // max / min over the lit pixels of exp(a + b u + c v), the log-linear fit
