@@ -367,8 +367,8 @@ std::vector<SgLobe> MergeLobes(std::vector<SgLobe> lobes, double overlap) {
 // Levenberg-Marquardt of every lobe of *lighting over the points of `model`;
 // drops lobes whose amplitude reaches 0. Returns the iterations run.
 int RefineLobes(const ShadowPlaneModel& model, const std::vector<double>& weight,
-                const std::vector<Eigen::Vector3f>& targets, int iterations, bool line_search,
-                SgLighting* lighting, const ProgressFn* progress) {
+                const std::vector<Eigen::Vector3f>& targets, int iterations, SgLighting* lighting,
+                const ProgressFn* progress) {
   if (iterations <= 0 || lighting->lobes.empty()) return 0;
   const int L = static_cast<int>(lighting->lobes.size());
   std::vector<double> params(7 * L);
@@ -398,7 +398,7 @@ int RefineLobes(const ShadowPlaneModel& model, const std::vector<double>& weight
   // every trial evaluates the full Jacobian: 60 % of the fast budget's time,
   // for no systematic gain (measured over four scenes x three seeds); bounds
   // are still kept, by projection.
-  if (!line_search) so.max_num_line_search_step_size_iterations = 0;
+  so.max_num_line_search_step_size_iterations = 0;
   so.logging_type = ceres::SILENT;
   std::unique_ptr<ProgressCallback> cb;
   if (progress) {
@@ -548,8 +548,7 @@ FitResult FitOnce(const ShadowPlaneModel& model, const std::vector<Eigen::Vector
     lighting.lobes.push_back(merged[k]);
     // Lobes not yet in the model carry light the refinement must not miss:
     // the first ones absorb it, later ones give it back.
-    RefineLobes(fit_model, sets.weight, fit_targets, o.path_refine_iterations, o.bounded_line_search, &lighting,
-                nullptr);
+    RefineLobes(fit_model, sets.weight, fit_targets, o.path_refine_iterations, &lighting, nullptr);
     const double mse = WeightedMse(hold_model, lighting, {}, hold_targets);
     path.push_back(lighting);
     path_mse.push_back(mse);
@@ -574,14 +573,14 @@ FitResult FitOnce(const ShadowPlaneModel& model, const std::vector<Eigen::Vector
   }
   lighting = path[chosen];
   sum.select_seconds = Since(t0);
-  sum.fit_mse_selected = WeightedMse(fit_model, lighting, sets.weight, Gather(targets, sets.fit));
+  sum.fit_mse_selected = WeightedMse(fit_model, lighting, sets.weight, fit_targets);
 
   // Final joint refinement of the chosen model.
   t0 = Clock::now();
-  sum.refine_iterations = RefineLobes(fit_model, sets.weight, fit_targets, o.refine_iterations,
-                                      o.bounded_line_search, &lighting, &progress);
+  sum.refine_iterations =
+      RefineLobes(fit_model, sets.weight, fit_targets, o.refine_iterations, &lighting, &progress);
   sum.refine_seconds = Since(t0);
-  sum.fit_mse_refined = WeightedMse(fit_model, lighting, sets.weight, Gather(targets, sets.fit));
+  sum.fit_mse_refined = WeightedMse(fit_model, lighting, sets.weight, fit_targets);
   sum.invalid_lobes_removed = RemoveInvalidLobes(&lighting);
   sum.lobes_kept = static_cast<int>(lighting.lobes.size());
   FitResult r;

@@ -57,7 +57,6 @@ struct SgSolverOptions {
   int path_refine_iterations = 8;  // LM iterations after each lobe added on the path
   int refine_iterations = 25;      // final LM iterations of the chosen model (0: none)
   int restarts = 1;                // fits from independent fit-pixel draws; the best held-out error wins
-  bool bounded_line_search = false;  // Ceres's projected line search after each LM step (slow)
   uint64_t seed = 0;
 
   // Presets of `--budget`: fast, balanced (default), best.
