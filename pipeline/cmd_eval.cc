@@ -23,6 +23,8 @@ void RegisterEvalCommand(CLI::App& app) {
   cmd->add_option("--visibility", opt->eval.visibility,
                   "SG rendering: spheres (sphere-tree sigmoid) or exact (ray-cast mesh visibility)")
       ->capture_default_str();
+  cmd->add_flag("--bounce", opt->eval.bounce,
+                "SG, --sg-model sg: add the light the object reflects onto the plane (as solve's report.bounce)");
   AddCommonOptions(cmd, &opt->common);
   cmd->callback([opt] { RunEval(opt->scene_dir, opt->lighting, opt->out_dir, opt->eval, MakeContext(opt->common)); });
 }

@@ -84,4 +84,40 @@ CosineIntegral SgCosineIntegral(double lambda, double c) {
   return r;
 }
 
+namespace {
+
+// The table holds C lambda / (2 pi (1 - e^{-2 lambda})), C over the lobe's
+// power: bounded and smooth in both arguments.
+constexpr int kTableLambdas = 64, kTableCosines = 129;
+constexpr double kTableLogMin = -4.6, kTableLogMax = 9.3;  // lambda 0.01 .. 1.1e4
+
+struct CosineTable {
+  std::array<float, kTableLambdas * kTableCosines> f;
+  CosineTable() {
+    for (int l = 0; l < kTableLambdas; ++l) {
+      const double lambda = std::exp(kTableLogMin + (kTableLogMax - kTableLogMin) * l / (kTableLambdas - 1));
+      for (int k = 0; k < kTableCosines; ++k) {
+        const double c = -1 + 2.0 * k / (kTableCosines - 1);
+        f[l * kTableCosines + k] = static_cast<float>(Value(lambda, c) * lambda / (2 * M_PI * -std::expm1(-2 * lambda)));
+      }
+    }
+  }
+};
+
+}  // namespace
+
+double SgCosineIntegralTabulated(double lambda, double c) {
+  static const CosineTable table;
+  const double power = 2 * M_PI * -std::expm1(-2 * lambda) / lambda;
+  const double x = std::clamp((std::log(lambda) - kTableLogMin) / (kTableLogMax - kTableLogMin), 0.0, 1.0) *
+                   (kTableLambdas - 1);
+  const double y = (std::clamp(c, -1.0, 1.0) + 1) / 2 * (kTableCosines - 1);
+  const int l = std::min(static_cast<int>(x), kTableLambdas - 2), k = std::min(static_cast<int>(y), kTableCosines - 2);
+  const double fx = x - l, fy = y - k;
+  const float* f = table.f.data();
+  const double v = (1 - fx) * ((1 - fy) * f[l * kTableCosines + k] + fy * f[l * kTableCosines + k + 1]) +
+                   fx * ((1 - fy) * f[(l + 1) * kTableCosines + k] + fy * f[(l + 1) * kTableCosines + k + 1]);
+  return power * v;
+}
+
 }  // namespace shadowsg

@@ -15,4 +15,9 @@ struct CosineIntegral {
 // Accurate to ~1e-9 relative for lambda in [1e-3, 1e5].
 CosineIntegral SgCosineIntegral(double lambda, double c);
 
+// C alone from a table built on first use (bilinear in log lambda and c, to
+// ~1e-3 of the lobe's power): for the many (lobe, surface) pairs of
+// solver/caster_bounce.h, where the exact quadrature would cost seconds.
+double SgCosineIntegralTabulated(double lambda, double c);
+
 }  // namespace shadowsg

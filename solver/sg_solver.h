@@ -13,7 +13,8 @@
 //    problem; neighbouring atoms of the solution are merged into one lobe
 //    each (power and first moment kept).
 // 4. Size path: the k strongest merged lobes, k = 1, 2, ..., each model
-//    refined from the previous one plus the next lobe by Levenberg-Marquardt
+//    started from the previous one plus the next lobe with every amplitude
+//    re-solved by NNLS, and refined by Levenberg-Marquardt
 //    (Ceres: axes on the sphere, log-sharpness, non-negative amplitudes,
 //    analytic Jacobians). The smallest model within `size_tolerance` of the
 //    best held-out error is kept ("no more lobes than the scene needs") and
@@ -23,6 +24,9 @@
 //    error on the one shared held-out set wins (or a smaller one within
 //    tolerance). Which local minimum the size path reaches depends on the
 //    pixels; the held-out set tells them apart.
+// 6. With the casters' bounce in the model (solver/caster_bounce.h) and
+//    choose_bounce: the fits with and without it race on the held-out set;
+//    the loser stops once clearly behind, the lower held-out error wins.
 // The cosine is integrated exactly (solver/cosine_integral.h) rather than
 // through the paper's one-SG fit.
 #pragma once
@@ -57,6 +61,9 @@ struct SgSolverOptions {
   int path_refine_iterations = 8;  // LM iterations after each lobe added on the path
   int refine_iterations = 25;      // final LM iterations of the chosen model (0: none)
   int restarts = 1;                // fits from independent fit-pixel draws; the best held-out error wins
+  // When the model has the casters' bounce: also fit without it and keep
+  // whichever has the lower held-out error (up to twice the time).
+  bool choose_bounce = true;
   uint64_t seed = 0;
 
   // Presets of `--budget`: fast, balanced (default), best.
@@ -73,6 +80,9 @@ struct SgSolverSummary {
   int invalid_lobes_removed = 0;    // non-finite lobes dropped by the last guard (0 unless a bug or a degenerate fit)
   std::vector<double> restart_heldout_mse;  // final held-out MSE of each restart
   int restart_chosen = 0;
+  bool bounce = false;                      // the chosen model has the casters' bounce
+  std::vector<double> bounce_heldout_mse;   // choose_bounce: best held-out MSE without, then with, the bounce (a model that
+                                            // dropped out of the race: the best of its size path)
   double theta_seconds = 0, select_seconds = 0, refine_seconds = 0, seconds = 0;
 };
 

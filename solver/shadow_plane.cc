@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "calib/error.h"
+#include "solver/plane_pixels.h"
 #include "solver/sg_shading.h"
 
 namespace shadowsg {
@@ -79,7 +80,148 @@ ShadowPlaneModel MakeShadowPlaneModel(const Scene& scene, const PlanePixels& pix
   return model;
 }
 
-std::vector<Eigen::Vector3f> RenderShadowPlane(const ShadowPlaneModel& model, const SgLighting& lighting) {
+void AddCasterBounce(const Scene& scene, ShadowPlaneModel* model) {
+  std::vector<TriangleMesh> meshes;
+  std::vector<Eigen::Vector3d> albedo;
+  for (const SceneObject* o : scene.Casters()) meshes.push_back(o->WorldMesh()), albedo.push_back(o->diffuse);
+  const RayCaster casters = BuildRayCaster(scene.Casters());
+  model->bounce = std::make_shared<const CasterBounce>(meshes, albedo, casters, scene.plane.xyz, model->normal);
+  ShadowPlaneModel ground = *model;
+  ground.bounce.reset();
+  ground.bounce_form.resize(0, 0);
+  ground.points = model->bounce->ground();
+  ground.albedo.clear();
+  for (const Eigen::Vector3d& p : ground.points) ground.albedo.push_back(PlaneAlbedo(scene.plane, p).cast<float>());
+  ground.occluder_cos = OccluderConeCosines(ground.occluders, ground.points);
+  if (ground.exact) ground.PrepareExactTable();
+  else ground.PrepareCones();
+  model->bounce_ground = std::make_shared<const ShadowPlaneModel>(std::move(ground));
+}
+
+Eigen::MatrixXf DirectLobeShading(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3d>& axes,
+                                  const std::vector<double>& sharpness) {
+  const long np = static_cast<long>(model.points.size()), nl = static_cast<long>(axes.size());
+  Eigen::MatrixXf out(np, nl);
+  if (model.exact) {
+    std::vector<ExactVisibility::Lobe> lobes;
+    for (long i = 0; i < nl; ++i) lobes.push_back(model.exact->Prepare(axes[i], sharpness[i]));
+    SHADOWSG_CHECK(model.HasExactTable());  // the ground and fit models always have theirs
+#pragma omp parallel for schedule(dynamic, 16)
+    for (long k = 0; k < np; ++k)
+      for (long i = 0; i < nl; ++i)
+        out(k, i) = static_cast<float>(model.exact->Shade(model.exact_table->View(k), lobes[i], false).value);
+    return out;
+  }
+  std::vector<ProductLobe> products;
+  std::vector<float> caps;
+  for (long i = 0; i < nl; ++i) {
+    products.push_back(EvalProductLobe(axes[i], sharpness[i], model.normal, model.cosine));
+    caps.push_back(VisibilityCap(products.back()));
+  }
+  Eigen::MatrixXf theta;
+  PlaneAngles(model, axes, caps, &theta, nullptr);
+#pragma omp parallel for schedule(static)
+  for (long k = 0; k < np; ++k)
+    for (long i = 0; i < nl; ++i)
+      out(k, i) = static_cast<float>(ShadeLobe(products[i], theta(k, i), Eigen::Vector3d::Zero(),
+                                               model.cap_occlusion ? model.occluder_cos[k] : kNoOcclusionCap)
+                                         .value);
+  return out;
+}
+
+std::array<Eigen::MatrixXf, 3> BounceIrradiance(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3d>& axes,
+                                                const std::vector<double>& sharpness) {
+  SHADOWSG_CHECK(model.bounce);
+  if (!model.bounce_ground) return model.bounce->Irradiance(axes, sharpness, nullptr);
+  const ShadowPlaneModel& g = *model.bounce_ground;
+  const Eigen::MatrixXf s = DirectLobeShading(g, axes, sharpness);
+  std::array<Eigen::MatrixXf, 3> radiance;
+  for (int c = 0; c < 3; ++c) {
+    radiance[c] = s;
+    for (long p = 0; p < s.rows(); ++p) radiance[c].row(p) *= g.albedo[p][c];
+  }
+  return model.bounce->Irradiance(axes, sharpness, &radiance);
+}
+
+namespace {
+
+std::vector<Eigen::Vector3f> RenderDirect(const ShadowPlaneModel& model, const SgLighting& lighting);
+
+}  // namespace
+
+namespace {
+
+// K (radiance): the patches' radiance carried to the model's points.
+Eigen::MatrixXf GatherBounce(const ShadowPlaneModel& model, const Eigen::MatrixXf& radiance) {
+  if (model.HasBounceForm()) return model.bounce_form * radiance;
+  return model.bounce->FormFactors(model.points) * radiance;
+}
+
+}  // namespace
+
+Eigen::MatrixXf BounceLobeShading(const ShadowPlaneModel& model, const std::array<Eigen::MatrixXf, 3>& irradiance) {
+  SHADOWSG_CHECK(model.bounce);
+  Eigen::MatrixXf radiance = Eigen::MatrixXf::Zero(irradiance[0].rows(), irradiance[0].cols());
+  for (int c = 0; c < 3; ++c)
+    for (long j = 0; j < radiance.rows(); ++j)
+      radiance.row(j) += model.bounce->patches()[j].albedo_over_pi[c] / 3 * irradiance[c].row(j);
+  return GatherBounce(model, radiance);
+}
+
+std::array<Eigen::MatrixXf, 3> BounceLobeShadingRgb(const ShadowPlaneModel& model,
+                                                    const std::array<Eigen::MatrixXf, 3>& irradiance) {
+  SHADOWSG_CHECK(model.bounce);
+  const long m = irradiance[0].rows(), nl = irradiance[0].cols();
+  Eigen::MatrixXf radiance(m, 3 * nl);  // one product for the three channels
+  for (int c = 0; c < 3; ++c)
+    for (long j = 0; j < m; ++j)
+      radiance.block(j, c * nl, 1, nl) = model.bounce->patches()[j].albedo_over_pi[c] * irradiance[c].row(j);
+  const Eigen::MatrixXf all = GatherBounce(model, radiance);
+  return {all.leftCols(nl), all.middleCols(nl, nl), all.rightCols(nl)};
+}
+
+namespace {
+
+// The bounce's share of RenderShadowPlane (model.bounce set).
+std::vector<Eigen::Vector3f> RenderBounce(const ShadowPlaneModel& model, const SgLighting& lighting) {
+  std::vector<Eigen::Vector3f> out(model.points.size(), Eigen::Vector3f::Zero());
+  if (!model.bounce || lighting.lobes.empty()) return out;
+  std::vector<Eigen::Vector3d> axes;
+  std::vector<double> sharpness;
+  for (const SgLobe& l : lighting.lobes) axes.push_back(l.axis), sharpness.push_back(l.sharpness);
+  const std::array<Eigen::MatrixXf, 3> e = BounceIrradiance(model, axes, sharpness);
+  Eigen::MatrixXf radiance(e[0].rows(), 3);  // what each patch sends, per channel
+  for (int c = 0; c < 3; ++c) {
+    Eigen::VectorXf amp(static_cast<long>(lighting.lobes.size()));
+    for (size_t i = 0; i < lighting.lobes.size(); ++i) amp[static_cast<long>(i)] = static_cast<float>(lighting.lobes[i].amplitude[c]);
+    radiance.col(c) = e[c] * amp;
+    for (long j = 0; j < radiance.rows(); ++j) radiance(j, c) *= model.bounce->patches()[j].albedo_over_pi[c];
+  }
+  if (model.HasBounceForm()) {
+    const Eigen::MatrixXf b = model.bounce_form * radiance;
+    for (size_t k = 0; k < out.size(); ++k) out[k] = b.row(static_cast<long>(k)).transpose();
+  } else {
+    out = model.bounce->Gather(model.points, radiance);
+  }
+  for (size_t k = 0; k < out.size(); ++k) out[k] = model.albedo[k].cwiseProduct(out[k]) / static_cast<float>(M_PI);
+  return out;
+}
+
+}  // namespace
+
+std::vector<Eigen::Vector3f> RenderShadowPlane(const ShadowPlaneModel& model, const SgLighting& lighting,
+                                               std::vector<Eigen::Vector3f>* bounce_share) {
+  std::vector<Eigen::Vector3f> out = RenderDirect(model, lighting);
+  if (!model.bounce) return out;
+  std::vector<Eigen::Vector3f> b = RenderBounce(model, lighting);
+  for (size_t k = 0; k < out.size(); ++k) out[k] += b[k];
+  if (bounce_share) *bounce_share = std::move(b);
+  return out;
+}
+
+namespace {
+
+std::vector<Eigen::Vector3f> RenderDirect(const ShadowPlaneModel& model, const SgLighting& lighting) {
   if (model.exact)
     return model.exact->Render(model.points, model.albedo, lighting, model.upper_hemisphere_only,
                                model.HasExactTable() ? model.exact_table.get() : nullptr);
@@ -111,8 +253,11 @@ std::vector<Eigen::Vector3f> RenderShadowPlane(const ShadowPlaneModel& model, co
   return out;
 }
 
+}  // namespace
+
 double MseAndGradient(const ShadowPlaneModel& model, const SgLighting& lighting, const std::vector<size_t>& points,
                       const std::vector<Eigen::Vector3f>& targets, Eigen::MatrixXd* grad) {
+  SHADOWSG_CHECK(!model.bounce);  // the paper's model: direct light only
   std::vector<Eigen::Vector3d> axes;
   const std::vector<size_t> active = ActiveLobes(model, lighting, &axes);
   const size_t na = active.size();

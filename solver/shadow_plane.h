@@ -8,6 +8,7 @@
 #include <memory>
 #include <vector>
 
+#include "solver/caster_bounce.h"
 #include "solver/exact_visibility.h"
 #include "solver/plane_pixels.h"
 #include "solver/scene.h"
@@ -42,9 +43,20 @@ struct ShadowPlaneModel {
   std::shared_ptr<const ExactVisibility> exact;
   std::shared_ptr<const OccludedTable> exact_table;
 
+  // Light the casters reflect onto the plane (solver/caster_bounce.h), added
+  // to whichever visibility shades the direct light; bounce_form, when it
+  // holds `points`, saves recomputing their form factors.
+  std::shared_ptr<const CasterBounce> bounce;
+  Eigen::MatrixXf bounce_form;
+  // The bounce's ground points as a model of their own (same visibility,
+  // cones or exact table prepared): their direct light feeds the second bounce.
+  std::shared_ptr<const ShadowPlaneModel> bounce_ground;
+
   bool HasCones() const { return cones.size() == points.size() && !points.empty(); }
   void PrepareCones() { cones = OccluderCones(occluders, points, search); }
   bool HasExactTable() const { return exact && exact_table && exact_table->size() == points.size(); }
+  bool HasBounceForm() const { return bounce && bounce_form.rows() == static_cast<long>(points.size()) && !points.empty(); }
+  void PrepareBounceForm() { if (bounce) bounce_form = bounce->FormFactors(points); }
   void PrepareExactTable() { exact_table = std::make_shared<const OccludedTable>(exact->Tabulate(points)); }
 };
 
@@ -71,8 +83,32 @@ enum class ShadingModel { kPaper, kSg };
 ShadowPlaneModel MakeShadowPlaneModel(const Scene& scene, const PlanePixels& pixels,
                                       ShadingModel shading = ShadingModel::kPaper);
 
-// Closed-form radiance of every point. Multithreaded.
-std::vector<Eigen::Vector3f> RenderShadowPlane(const ShadowPlaneModel& model, const SgLighting& lighting);
+// Adds the casters' bounce (solver/caster_bounce.h) to a model whose
+// visibility (spheres or exact) is already set; `sg` only.
+void AddCasterBounce(const Scene& scene, ShadowPlaneModel* model);
+
+// Direct shading of each lobe at every point of the model, per unit amplitude
+// and unit albedo/pi, without the bounce: points x lobes.
+Eigen::MatrixXf DirectLobeShading(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3d>& axes,
+                                  const std::vector<double>& sharpness);
+
+// Per channel, the irradiance per unit amplitude of each lobe at the casters'
+// patches (patches x lobes), the plane's second bounce included.
+std::array<Eigen::MatrixXf, 3> BounceIrradiance(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3d>& axes,
+                                                const std::vector<double>& sharpness);
+
+// The bounce's shading of each lobe at the model's points (points x lobes),
+// per unit amplitude and unit plane albedo/pi, averaged over the channels,
+// from BounceIrradiance's result; and per channel.
+Eigen::MatrixXf BounceLobeShading(const ShadowPlaneModel& model, const std::array<Eigen::MatrixXf, 3>& irradiance);
+std::array<Eigen::MatrixXf, 3> BounceLobeShadingRgb(const ShadowPlaneModel& model,
+                                                    const std::array<Eigen::MatrixXf, 3>& irradiance);
+
+// Closed-form radiance of every point (direct light, plus the casters'
+// bounce when the model has it; bounce_share, when given, receives that
+// part alone). Multithreaded.
+std::vector<Eigen::Vector3f> RenderShadowPlane(const ShadowPlaneModel& model, const SgLighting& lighting,
+                                               std::vector<Eigen::Vector3f>* bounce_share = nullptr);
 
 // Mean squared error over the listed points and the three channels, against
 // targets[point], and its gradient with respect to each lobe's

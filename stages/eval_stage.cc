@@ -21,6 +21,7 @@ std::string EvalOptions::Validate() const {
   if (sg_model != "sg" && sg_model != "paper") return "--sg-model: expected sg or paper";
   if (map_height < 1 || map_height > 32) return "--map-height: expected 1 to 32 rows";
   if (visibility != "spheres" && visibility != "exact") return "--visibility: expected spheres or exact";
+  if (bounce && sg_model != "sg") return "--bounce: only with --sg-model sg (the paper's model is direct light only)";
   return "";
 }
 
@@ -45,6 +46,7 @@ void RunEval(const fs::path& scene_dir, const fs::path& lighting_file, const fs:
     ShadowPlaneModel model = PrepareShadowPlane(
         scene, scene_dir, pixels, o.sg_model == "sg" ? ShadingModel::kSg : ShadingModel::kPaper, ctx);
     if (o.visibility == "exact") model.exact = MakeExactVisibility(scene);  // cosine exact, mesh visibility
+    if (o.bounce) AddCasterBounce(scene, &model);
     est.sg = lights.sg;
     CompleteSgEstimate(model, &est);
   }
@@ -59,7 +61,8 @@ void RunEval(const fs::path& scene_dir, const fs::path& lighting_file, const fs:
   }
   est.solve_seconds = 0;
   est.extra = Json{{"lighting", lighting_file.string()}, {"render_seconds", render_clock.Seconds()},
-                   {"sg_model", o.sg_model}, {"visibility", o.visibility}, {"map_rows", o.map_height}};
+                   {"sg_model", o.sg_model}, {"visibility", o.visibility}, {"bounce", o.bounce},
+                   {"map_rows", o.map_height}};
   if (scene.image_virtual_objs) EnsureCompositeTrees(scene, scene_dir, ctx);  // for the insertion scores
   const Json m = ScoreAndWrite(scene, pixels, est, out_dir, clock, ctx);
   char line[200];

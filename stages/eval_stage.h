@@ -14,6 +14,7 @@ struct EvalOptions {
   // model `--method sg` fits) or "paper" (the paper's cosine SG and sigmoid).
   std::string sg_model = "sg";
   std::string visibility = "spheres";  // SG: spheres (the model's sigmoid) | exact (ray-cast mesh)
+  bool bounce = false;                 // SG, sg model: add the light the casters reflect onto the plane
   // Env maps are rendered through the baselines' light transport (ray-cast
   // mesh visibility) at this many rows over the hemisphere.
   int map_height = 16;

@@ -20,7 +20,7 @@ ShadowPlaneModel PrepareShadowPlane(Scene& scene, const fs::path& scene_dir, con
 }
 
 void CompleteSgEstimate(const ShadowPlaneModel& model, LightingEstimate* est) {
-  est->plane_render = RenderShadowPlane(model, *est->sg);
+  est->plane_render = RenderShadowPlane(model, *est->sg, &est->plane_bounce);
   est->envmap = SgToEnvMap(*est->sg, kEnvMapOutputHeight);
   est->n_lobes = static_cast<int>(est->sg->lobes.size());
   est->n_params = 6 * est->n_lobes;

@@ -23,6 +23,7 @@ struct LightingEstimate {
   std::optional<SgLighting> sg;             // SG methods
   Image envmap;                             // every method: H x 2H radiance map
   std::vector<Eigen::Vector3f> plane_render;  // re-render at every plane pixel
+  std::vector<Eigen::Vector3f> plane_bounce;  // SG with the casters' bounce: its share of plane_render
   int n_lobes = 0;                          // SG: lobes kept; maps: 0
   int n_params = 0;
   double solve_seconds = 0;

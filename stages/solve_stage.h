@@ -20,6 +20,10 @@ struct SolveOptions {
   std::string ssdf = "exact";        // exact | c2f (the reference's coarse-to-fine search)
   std::string visibility = "spheres";  // sg: spheres (sphere-tree sigmoid) | exact (ray-cast mesh, slower)
   bool score_exact = false;          // sg, sg-paper: also score the estimate rendered with exact visibility
+  // sg: light the casters reflect onto the plane (solver/caster_bounce.h):
+  // on | off | auto (exact visibility: on; spheres: fitted with and without,
+  // the lower held-out error kept).
+  std::string bounce = "auto";
 
   // Message naming the bad option, or empty.
   std::string Validate() const;

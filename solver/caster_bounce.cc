@@ -1,0 +1,269 @@
+#include "solver/caster_bounce.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "calib/error.h"
+#include "solver/cosine_integral.h"
+#include "solver/surface_samples.h"
+
+namespace shadowsg {
+namespace {
+
+// A piece of surface: area, centroid and unit normal.
+struct Element {
+  Eigen::Vector3d centre, normal;
+  double area;
+};
+
+std::vector<Element> MicroTriangles(const TriangleMesh& mesh, int target_points) {
+  const SurfaceGrid grid = SampleSurfaceGrid(mesh, target_points);
+  std::vector<Element> out;
+  out.reserve(grid.micro_triangles.size());
+  for (const Eigen::Vector3i& t : grid.micro_triangles) {
+    const Eigen::Vector3d &a = grid.points[t[0]], &b = grid.points[t[1]], &c = grid.points[t[2]];
+    const Eigen::Vector3d cross = (b - a).cross(c - a);
+    const double area = 0.5 * cross.norm();
+    if (!(area > 0)) continue;
+    out.push_back({(a + b + c) / 3, cross.normalized(), area});
+  }
+  return out;
+}
+
+// `count` patches of one mesh's surface: k-means of its micro-triangles on
+// position and normal (the normal keeps the two sides of a thin part apart),
+// seeded by farthest-point sampling; deterministic.
+std::vector<Element> Cluster(const std::vector<Element>& el, int count) {
+  double total = 0;
+  for (const Element& e : el) total += e.area;
+  const double radius = std::sqrt(total / (count * M_PI));
+  auto distance2 = [&](const Element& e, const Eigen::Vector3d& c, const Eigen::Vector3d& n) {
+    return (e.centre - c).squaredNorm() + radius * radius * (e.normal - n).squaredNorm();
+  };
+  std::vector<Eigen::Vector3d> centre, normal;
+  std::vector<double> nearest(el.size(), std::numeric_limits<double>::infinity());
+  size_t next = 0;
+  for (int k = 0; k < count && k < static_cast<int>(el.size()); ++k) {
+    centre.push_back(el[next].centre);
+    normal.push_back(el[next].normal);
+    double far = -1;
+    for (size_t i = 0; i < el.size(); ++i) {
+      nearest[i] = std::min(nearest[i], distance2(el[i], centre.back(), normal.back()));
+      if (nearest[i] > far) far = nearest[i], next = i;
+    }
+  }
+  const int m = static_cast<int>(centre.size());
+  std::vector<int> owner(el.size(), 0);
+  for (int iteration = 0; iteration < 12; ++iteration) {
+#pragma omp parallel for schedule(static)
+    for (long i = 0; i < static_cast<long>(el.size()); ++i) {
+      double best = std::numeric_limits<double>::infinity();
+      for (int k = 0; k < m; ++k) {
+        const double d = distance2(el[i], centre[k], normal[k]);
+        if (d < best) best = d, owner[i] = k;
+      }
+    }
+    std::vector<Eigen::Vector3d> sum_c(m, Eigen::Vector3d::Zero()), sum_n(m, Eigen::Vector3d::Zero());
+    std::vector<double> sum_a(m, 0.0);
+    for (size_t i = 0; i < el.size(); ++i) {
+      sum_c[owner[i]] += el[i].area * el[i].centre;
+      sum_n[owner[i]] += el[i].area * el[i].normal;
+      sum_a[owner[i]] += el[i].area;
+    }
+    for (int k = 0; k < m; ++k)
+      if (sum_a[k] > 0 && sum_n[k].norm() > 0) centre[k] = sum_c[k] / sum_a[k], normal[k] = sum_n[k].normalized();
+  }
+  // A patch's effective area is its vector area |sum a n|: the flux through a
+  // curved patch towards a direction it faces.
+  std::vector<Element> out(m, Element{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), 0.0});
+  std::vector<Eigen::Vector3d> vector_area(m, Eigen::Vector3d::Zero());
+  std::vector<double> area(m, 0.0);
+  for (size_t i = 0; i < el.size(); ++i) {
+    out[owner[i]].centre += el[i].area * el[i].centre;
+    vector_area[owner[i]] += el[i].area * el[i].normal;
+    area[owner[i]] += el[i].area;
+  }
+  std::vector<Element> kept;
+  for (int k = 0; k < m; ++k) {
+    if (!(area[k] > 0 && vector_area[k].norm() > 0)) continue;
+    kept.push_back({out[k].centre / area[k], vector_area[k].normalized(), vector_area[k].norm()});
+  }
+  return kept;
+}
+
+std::vector<Eigen::Vector3d> FibonacciSphere(int count) {
+  std::vector<Eigen::Vector3d> dirs;
+  const double golden = M_PI * (3 - std::sqrt(5.0));
+  for (int i = 0; i < count; ++i) {
+    const double z = 1 - (2.0 * i + 1) / count;
+    const double r = std::sqrt(std::max(0.0, 1 - z * z));
+    dirs.emplace_back(r * std::cos(golden * i), r * std::sin(golden * i), z);
+  }
+  return dirs;
+}
+
+// Share of a unit SG's power above the plane, s = mu.n: exact for broad
+// lobes (the power in z = w.n > 0 is 2 pi int_0^1 e^{lambda (z s - 1)}
+// I0(lambda sqrt(1 - z^2) sqrt(1 - s^2)) dz), and the normal approximation of
+// the lobe's elevation beyond lambda = 50, where it is good to ~1e-3.
+double UpperShare(double lambda, double s) {
+  s = std::clamp(s, -1.0, 1.0);
+  if (lambda > 50) return 0.5 * std::erfc(-std::asin(s) * std::sqrt(lambda) / std::sqrt(2.0));
+  constexpr int kSteps = 256;  // Simpson on z in [0, 1]
+  const double rs = std::sqrt(1 - s * s);
+  double sum = 0;
+  for (int q = 0; q <= kSteps; ++q) {
+    const double z = static_cast<double>(q) / kSteps;
+    const double f = std::exp(lambda * (z * s - 1)) * std::cyl_bessel_i(0.0, lambda * std::sqrt(std::max(0.0, 1 - z * z)) * rs);
+    sum += (q == 0 || q == kSteps ? 1 : q % 2 ? 4 : 2) * f;
+  }
+  const double upper = 2 * M_PI * sum / (3 * kSteps);
+  return std::clamp(upper * lambda / (2 * M_PI * -std::expm1(-2 * lambda)), 0.0, 1.0);
+}
+
+}  // namespace
+
+CasterBounce::CasterBounce(const std::vector<TriangleMesh>& world_meshes, const std::vector<Eigen::Vector3d>& albedo,
+                           const RayCaster& casters, const Eigen::Vector3d& plane_point,
+                           const Eigen::Vector3d& plane_normal, const CasterBounceOptions& o)
+    : normal_(plane_normal.normalized()) {
+  SHADOWSG_CHECK(world_meshes.size() == albedo.size());
+  SHADOWSG_CHECK(o.patches >= 1 && o.directions >= 16 && o.surface_points >= 16);
+  std::vector<double> areas;
+  double total = 0;
+  for (const TriangleMesh& m : world_meshes) total += areas.emplace_back(MeshArea(m));
+  for (size_t i = 0; i < world_meshes.size(); ++i) {
+    if (!(areas[i] > 0)) continue;
+    const double share = areas[i] / total;
+    const int count = std::max(1, static_cast<int>(std::lround(o.patches * share)));
+    const std::vector<Element> el =
+        MicroTriangles(world_meshes[i], std::max(count * 8, static_cast<int>(o.surface_points * share)));
+    for (const Element& e : Cluster(el, count))
+      patches_.push_back({e.centre, e.normal, e.area, (albedo[i] / M_PI).cast<float>()});
+  }
+  dirs_ = FibonacciSphere(o.directions);
+  // Lobes sharper than one direction cell are widened to it for v_ij.
+  max_weight_sharpness_ = o.directions / (4 * M_PI);
+  const long m = static_cast<long>(patches_.size()), nd = static_cast<long>(dirs_.size());
+
+  // The ground grid: log-polar about the casters' foot on the plane.
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo, foot = Eigen::Vector3d::Zero();
+  double area = 0;
+  for (const Patch& p : patches_) {
+    lo = lo.cwiseMin(p.centre), hi = hi.cwiseMax(p.centre);
+    foot += p.area * p.centre, area += p.area;
+  }
+  foot /= std::max(area, 1e-300);
+  foot -= normal_.dot(foot - plane_point) * normal_;
+  const double size = std::max((hi - lo).norm(), 1e-9);
+  const double r_min = 0.01 * size, ratio = std::pow(3000.0, 1.0 / std::max(1, o.ground_rings - 1));
+  Eigen::Vector3d t, b;
+  t = normal_.unitOrthogonal(), b = normal_.cross(t);
+  ground_.push_back(foot);
+  for (int r = 0; r < o.ground_rings; ++r)
+    for (int a = 0; a < o.ground_sectors; ++a) {
+      const double radius = r_min * std::pow(ratio, r), phi = 2 * M_PI * a / o.ground_sectors;
+      ground_.push_back(foot + radius * (std::cos(phi) * t + std::sin(phi) * b));
+    }
+  auto ground_node = [&](const Eigen::Vector3d& x) {
+    const Eigen::Vector3d d = x - foot;
+    const double radius = d.norm();
+    if (radius < r_min / std::sqrt(ratio)) return 0;
+    const int ring = std::clamp(static_cast<int>(std::lround(std::log(radius / r_min) / std::log(ratio))), 0,
+                                o.ground_rings - 1);
+    const double phi = std::atan2(d.dot(b), d.dot(t));
+    const int sector = static_cast<int>(std::lround(phi / (2 * M_PI) * o.ground_sectors + o.ground_sectors)) %
+                       o.ground_sectors;
+    return 1 + ring * o.ground_sectors + sector;
+  };
+
+  visible_cos_ = Eigen::MatrixXf::Zero(m, nd);
+  upper_cos_ = Eigen::MatrixXf::Zero(m, nd);
+  ground_weight_ = Eigen::MatrixXf::Zero(m, static_cast<long>(ground_.size()));
+  const double cell = 4 * M_PI / nd;  // solid angle of one direction
+#pragma omp parallel for schedule(dynamic, 4)
+  for (long j = 0; j < m; ++j) {
+    const Patch& p = patches_[j];
+    // Off the surface by a quarter of the patch's radius: a curved patch's
+    // centroid lies inside a convex surface by its sagitta.
+    const Eigen::Vector3d origin = p.centre + 0.25 * std::sqrt(p.area / M_PI) * p.normal;
+    std::vector<Eigen::Vector3d> facing;
+    std::vector<long> index;
+    for (long k = 0; k < nd; ++k)
+      if (p.normal.dot(dirs_[k]) > 0) facing.push_back(dirs_[k]), index.push_back(k);
+    std::vector<char> visible;
+    casters.Visible(origin, facing, 0, &visible);
+    for (size_t q = 0; q < facing.size(); ++q) {
+      const long k = index[q];
+      const double c = p.normal.dot(dirs_[k]), up = dirs_[k].dot(normal_);
+      if (up > 0) {
+        upper_cos_(j, k) = static_cast<float>(c);
+        if (visible[q]) visible_cos_(j, k) = static_cast<float>(c);
+      } else if (visible[q] && up < 0) {  // reaches the plane: the second bounce
+        const double hit = normal_.dot(plane_point - origin) / up;
+        if (hit > 0) ground_weight_(j, ground_node(origin + hit * dirs_[k])) += static_cast<float>(c * cell / M_PI);
+      }
+    }
+  }
+}
+
+std::array<Eigen::MatrixXf, 3> CasterBounce::Irradiance(const std::vector<Eigen::Vector3d>& axes,
+                                                        const std::vector<double>& sharpness,
+                                                        const std::array<Eigen::MatrixXf, 3>* ground_radiance) const {
+  SHADOWSG_CHECK(axes.size() == sharpness.size());
+  const long nl = static_cast<long>(axes.size()), nd = static_cast<long>(dirs_.size());
+  Eigen::MatrixXf weight(nd, nl);
+  for (long i = 0; i < nl; ++i) {
+    const double lw = std::min(sharpness[i], max_weight_sharpness_);
+    const Eigen::Vector3d mu = axes[i].normalized();
+    for (long k = 0; k < nd; ++k) weight(k, i) = static_cast<float>(std::exp(lw * (dirs_[k].dot(mu) - 1)));
+  }
+  // v = (share of the widened lobe the casters leave open, among the
+  // directions above the plane) x (share of the true lobe above the plane):
+  // widening a low sun would otherwise push half of it below the horizon.
+  const Eigen::MatrixXf num = visible_cos_ * weight, den = upper_cos_ * weight;
+  std::vector<double> upper(nl);
+  for (long i = 0; i < nl; ++i) upper[i] = UpperShare(sharpness[i], axes[i].normalized().dot(normal_));
+  Eigen::MatrixXf e(static_cast<long>(patches_.size()), nl);
+  for (long j = 0; j < e.rows(); ++j)
+    for (long i = 0; i < nl; ++i) {
+      const double v = den(j, i) > 0 ? upper[i] * num(j, i) / den(j, i) : 0.0;
+      e(j, i) = static_cast<float>(v * SgCosineIntegralTabulated(sharpness[i], axes[i].normalized().dot(patches_[j].normal)));
+    }
+  std::array<Eigen::MatrixXf, 3> out = {e, e, e};
+  if (ground_radiance)
+    for (int c = 0; c < 3; ++c) out[c].noalias() += ground_weight_ * (*ground_radiance)[c];
+  return out;
+}
+
+Eigen::MatrixXf CasterBounce::FormFactors(const std::vector<Eigen::Vector3d>& points) const {
+  Eigen::MatrixXf k(static_cast<long>(points.size()), static_cast<long>(patches_.size()));
+#pragma omp parallel for schedule(static)
+  for (long r = 0; r < static_cast<long>(points.size()); ++r)
+    for (size_t j = 0; j < patches_.size(); ++j) {
+      const Patch& p = patches_[j];
+      const Eigen::Vector3d v = p.centre - points[r];
+      const double d2 = v.squaredNorm();
+      const double up = normal_.dot(v), facing = -p.normal.dot(v);
+      // cos_x cos_j / d^2 = up facing / d^4, with the disk's area term.
+      k(r, static_cast<long>(j)) =
+          up > 0 && facing > 0 ? static_cast<float>(up * facing / d2 * p.area / (d2 + p.area / M_PI)) : 0.0f;
+    }
+  return k;
+}
+
+std::vector<Eigen::Vector3f> CasterBounce::Gather(const std::vector<Eigen::Vector3d>& points,
+                                                  const Eigen::MatrixXf& patch_radiance) const {
+  constexpr size_t kChunk = 4096;
+  std::vector<Eigen::Vector3f> out(points.size());
+  for (size_t begin = 0; begin < points.size(); begin += kChunk) {
+    const size_t end = std::min(points.size(), begin + kChunk);
+    const Eigen::MatrixXf b =
+        FormFactors(std::vector<Eigen::Vector3d>(points.begin() + begin, points.begin() + end)) * patch_radiance;
+    for (size_t r = begin; r < end; ++r) out[r] = b.row(static_cast<long>(r - begin)).transpose();
+  }
+  return out;
+}
+
+}  // namespace shadowsg

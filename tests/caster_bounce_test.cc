@@ -1,0 +1,192 @@
+// The light the casters reflect onto the plane (solver/caster_bounce.h):
+// against a brute-force integral over a sphere, against the path tracer's
+// bounces, and in the `sg` solver's choice between the models with and
+// without it.
+#include "solver/caster_bounce.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "solver/plane_pixels.h"
+#include "solver/primitives.h"
+#include "solver/shadow_plane.h"
+#include "stages/evaluation.h"
+#include "stages/io/json_util.h"
+#include "stages/io/scene_io.h"
+#include "stages/solve_stage.h"
+#include "stages/synth_stage.h"
+#include "test_util.h"
+
+namespace shadowsg {
+namespace {
+
+namespace fs = std::filesystem;
+
+StageContext QuietContext() {
+  StageContext ctx;
+  ctx.quiet = true;
+  ctx.threads = 2;
+  return ctx;
+}
+
+// A sphere of radius 0.5 resting on the plane z = 0 at the origin, albedo 0.6.
+struct SphereOnPlane {
+  static constexpr double kRadius = 0.5, kAlbedo = 0.6;
+  const Eigen::Vector3d centre{0, 0, kRadius + 1e-3};
+  TriangleMesh mesh;
+  RayCaster casters;
+  SphereOnPlane() {
+    mesh = MakeIcosphere(kRadius, 5);
+    for (auto& v : mesh.vertices) v += centre;
+    casters.AddMesh(mesh);
+    casters.Commit();
+  }
+};
+
+// The first bounce of a sharp lobe off a sphere, by brute force: a convex
+// caster hides none of its own sky and none of its surface that faces x, so
+// B(x) = sum over surface samples facing x of rho/pi E(y) cos_x cos_y / d^2 dA,
+// E(y) = sum over sky directions above the plane of G(w) max(n_y.w, 0) dw.
+double BruteForceBounce(const SphereOnPlane& s, const Eigen::Vector3d& x, const Eigen::Vector3d& mu, double lambda) {
+  constexpr int kSky = 400000, kSurface = 20000;
+  const double golden = M_PI * (3 - std::sqrt(5.0));
+  std::vector<Eigen::Vector3d> sky;  // directions where the lobe is not negligible
+  std::vector<double> weight;
+  for (int i = 0; i < kSky; ++i) {
+    const double z = 1 - (2.0 * i + 1) / kSky, r = std::sqrt(1 - z * z);
+    const Eigen::Vector3d w(r * std::cos(golden * i), r * std::sin(golden * i), z);
+    const double g = std::exp(lambda * (w.dot(mu) - 1));
+    if (g > 1e-9 && z > 0) sky.push_back(w), weight.push_back(g * 4 * M_PI / kSky);
+  }
+  double b = 0;
+  for (int i = 0; i < kSurface; ++i) {
+    const double z = 1 - (2.0 * i + 1) / kSurface, r = std::sqrt(1 - z * z);
+    const Eigen::Vector3d n(r * std::cos(golden * i), r * std::sin(golden * i), z);
+    const Eigen::Vector3d y = s.centre + SphereOnPlane::kRadius * n;
+    const Eigen::Vector3d v = x - y;
+    const double d2 = v.squaredNorm(), cos_y = n.dot(v) / std::sqrt(d2), cos_x = -v.z() / std::sqrt(d2);
+    if (cos_y <= 0 || cos_x <= 0) continue;
+    double e = 0;
+    for (size_t k = 0; k < sky.size(); ++k) e += weight[k] * std::max(0.0, n.dot(sky[k]));
+    const double area = 4 * M_PI * SphereOnPlane::kRadius * SphereOnPlane::kRadius / kSurface;
+    b += SphereOnPlane::kAlbedo / M_PI * e * cos_x * cos_y / d2 * area;
+  }
+  return b;
+}
+
+TEST(CasterBounce, FirstBounceOffASphereMatchesBruteForce) {
+  const SphereOnPlane s;
+  const CasterBounce bounce({s.mesh}, {Eigen::Vector3d::Constant(SphereOnPlane::kAlbedo)}, s.casters,
+                            Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ());
+  const std::vector<Eigen::Vector3d> points = {{0.75, 0, 0}, {0, -1.0, 0}, {-1.5, 0.4, 0}, {1.2, 1.2, 0}, {0, 3, 0}};
+  // A high sun and one 6 degrees above the horizon (the widened lobe of v_ij
+  // would put half of that below the plane without the upper share).
+  for (const Eigen::Vector3d& mu : {Eigen::Vector3d(0.3, -0.2, 0.93).normalized(),
+                                    Eigen::Vector3d(-0.99, 0.1, 0.105).normalized()}) {
+    const double lambda = 400;
+    const std::array<Eigen::MatrixXf, 3> e = bounce.Irradiance({mu}, {lambda}, nullptr);
+    Eigen::MatrixXf radiance(e[0].rows(), 1);
+    for (long j = 0; j < radiance.rows(); ++j) radiance(j, 0) = bounce.patches()[j].albedo_over_pi[0] * e[0](j, 0);
+    const Eigen::MatrixXf b = bounce.FormFactors(points) * radiance;
+    for (size_t i = 0; i < points.size(); ++i) {
+      const double ref = BruteForceBounce(s, points[i], mu, lambda);
+      std::printf("sun z %.2f, point (%.2f, %.2f): model %.4g, brute force %.4g (%+.1f %%)\n", mu.z(), points[i].x(),
+                  points[i].y(), b(static_cast<long>(i), 0), ref, 100 * (b(static_cast<long>(i), 0) / ref - 1));
+      EXPECT_NEAR(b(static_cast<long>(i), 0), ref, 0.03 * ref + 1e-8)
+          << "sun " << mu.transpose() << ", point " << points[i].transpose();
+    }
+  }
+}
+
+// A box and a sphere under a sun and a sky, path traced at 64 x 48 by the
+// project's renderer with `bounces` diffuse bounces.
+std::string TwoCasterSpec(int bounces) {
+  return R"({
+  "format": "synth/1",
+  "camera": {"width": 64, "height": 48, "fov_deg": 55, "look_from": [0.4, -2.4, 1.6], "look_at": [0, 0, 0.15]},
+  "plane": {"xyz": [0, 0, 0], "normal": [0, 0, 1], "scale": [6, 6, 1], "diffuse": [0.8, 0.7, 0.6]},
+  "objects": [
+    {"mesh": {"primitive": "box", "half_extents": [0.3, 0.12, 0.28]},
+     "position": [-0.3, 0.1, 0], "rest_on_plane": true, "rotate_deg": [0, 0, 25], "diffuse": [0.8, 0.8, 0.8]},
+    {"mesh": {"primitive": "icosphere", "radius": 0.22, "subdivisions": 3},
+     "position": [0.45, -0.2, 0], "rest_on_plane": true, "diffuse": [0.9, 0.5, 0.3]}
+  ],
+  "lights": {"lobes": [{"axis": [0.7, -0.3, 0.45], "sharpness": 2000, "amplitude": [3000, 2900, 2700]},
+                       {"axis": [0, 0, 1], "sharpness": 1.5, "amplitude": [0.3, 0.35, 0.45]}]},
+  "render": {"spp": 256, "bounces": )" +
+         std::to_string(bounces) + R"(, "seed": 7}
+})";
+}
+
+fs::path SynthScene(const shadowsg::testing::TempDir& tmp, const std::string& name, const std::string& spec) {
+  std::ofstream(tmp / (name + ".json")) << spec;
+  RunSynthStage(ReadSynthSpec(tmp / (name + ".json")), tmp / name, QuietContext());
+  return tmp / name;
+}
+
+TEST(CasterBounce, MatchesThePathTracersBounces) {
+  shadowsg::testing::TempDir tmp;
+  const fs::path direct = SynthScene(tmp, "direct", TwoCasterSpec(0));
+  const fs::path bounced = SynthScene(tmp, "bounced", TwoCasterSpec(2));
+  Scene scene = LoadScene(direct);
+  const Scene with = LoadScene(bounced);
+  const RayCaster casters = BuildRayCaster(scene.Casters());
+  const PlanePixels pixels = FindPlanePixels(scene, casters);
+  ASSERT_GT(pixels.size(), 1000u);
+  ShadowPlaneModel model = PrepareShadowPlane(scene, direct, pixels, ShadingModel::kSg, QuietContext());
+  const SgLighting lighting = *ReadSynthSpec(tmp / "direct.json").lights.sg;
+  const std::vector<Eigen::Vector3f> plain = RenderShadowPlane(model, lighting);
+  AddCasterBounce(scene, &model);
+  const std::vector<Eigen::Vector3f> lit = RenderShadowPlane(model, lighting);
+  // The plane's share of light that came off the casters: path tracer (two
+  // bounces minus none, same samples) against the model, per pixel.
+  double sm = 0, sp = 0, smm = 0, spp = 0, smp = 0;
+  const double n = static_cast<double>(pixels.size());
+  for (size_t k = 0; k < pixels.size(); ++k) {
+    const double m = (lit[k] - plain[k]).sum(), p = (with.image.rgb(pixels.pixel[k]) - scene.image.rgb(pixels.pixel[k])).sum();
+    sm += m, sp += p, smm += m * m, spp += p * p, smp += m * p;
+  }
+  const double correlation = (smp / n - sm / n * sp / n) /
+                             std::sqrt((smm / n - sm * sm / n / n) * (spp / n - sp * sp / n / n));
+  std::printf("bounce on the plane: model %.5f, path tracer %.5f (ratio %.3f), correlation %.3f\n", sm / n, sp / n,
+              sm / sp, correlation);
+  EXPECT_GT(sp / n, 0.005);  // the scene does bounce a visible amount
+  EXPECT_NEAR(sm / sp, 1.0, 0.15);
+  EXPECT_GT(correlation, 0.8);
+}
+
+// Solves a scene fast with --bounce mode; returns metrics.json.
+Json Solve(const fs::path& scene, const fs::path& out, const std::string& bounce) {
+  SolveOptions o;
+  o.budget = "fast";
+  o.bounce = bounce;
+  RunSolve(scene, out, o, QuietContext());
+  return ReadJsonFile(out / "metrics.json");
+}
+
+TEST(CasterBounce, SolverKeepsTheBounceWhereTheImageHasIt) {
+  shadowsg::testing::TempDir tmp;
+  const fs::path bounced = SynthScene(tmp, "bounced", TwoCasterSpec(2));
+  const Json off = Solve(bounced, tmp / "off", "off");
+  const Json on = Solve(bounced, tmp / "auto", "auto");
+  std::printf("bounced scene: off %.2f dB, auto %.2f dB (bounce %d), held-out %s\n", off["psnr"].get<double>(),
+              on["psnr"].get<double>(), on["report"]["bounce"].get<bool>(),
+              on["report"]["bounce_heldout_mse"].dump().c_str());
+  EXPECT_FALSE(off["report"]["bounce"].get<bool>());
+  EXPECT_TRUE(on["report"]["bounce"].get<bool>());
+  EXPECT_GT(on["psnr"].get<double>(), off["psnr"].get<double>() + 1.0);
+
+  // Where the image holds no bounce (direct light only), the held-out error
+  // keeps the model without it.
+  const fs::path direct = SynthScene(tmp, "direct", TwoCasterSpec(0));
+  const Json plain = Solve(direct, tmp / "plain", "auto");
+  std::printf("direct-only scene: auto %.2f dB (bounce %d), held-out %s\n", plain["psnr"].get<double>(),
+              plain["report"]["bounce"].get<bool>(), plain["report"]["bounce_heldout_mse"].dump().c_str());
+  EXPECT_FALSE(plain["report"]["bounce"].get<bool>());
+}
+
+}  // namespace
+}  // namespace shadowsg
