@@ -13,8 +13,8 @@
 //    problem; neighbouring atoms of the solution are merged into one lobe
 //    each (power and first moment kept).
 // 4. Size path: the k strongest merged lobes, k = 1, 2, ..., each model
-//    started from the previous one plus the next lobe with every amplitude
-//    re-solved by NNLS, and refined by Levenberg-Marquardt
+//    started from the previous one plus the next lobe (with the bounce:
+//    every amplitude re-solved by NNLS first) and refined by Levenberg-Marquardt
 //    (Ceres: axes on the sphere, log-sharpness, non-negative amplitudes,
 //    analytic Jacobians). The smallest model within `size_tolerance` of the
 //    best held-out error is kept ("no more lobes than the scene needs") and
