@@ -31,8 +31,8 @@ void RegisterSolveCommand(CLI::App& app) {
                   "sg: spheres (sphere-tree sigmoid, fast) or exact (ray-cast mesh visibility, slower)")
       ->capture_default_str();
   cmd->add_option("--bounce", opt->solve.bounce,
-                  "sg: light the object reflects onto the plane: auto (spheres: fitted with and without, the better "
-                  "held-out kept; exact: on), on or off")
+                  "sg: light the object reflects onto the plane: auto (fitted with and without, the better held-out "
+                  "kept), on or off")
       ->capture_default_str();
   cmd->add_flag("--score-exact", opt->solve.score_exact,
                 "sg, sg-paper: also score the estimate rendered with exact (ray-cast) visibility");

@@ -666,7 +666,7 @@ bool StepFit(FitRun* run, const SgSolverOptions& o) {
   SgLighting& lighting = run->lighting;
   lighting.lobes.push_back(run->merged[k]);
   // With the bounce the merged lobes' amplitudes (fitted beside atoms that
-  // are gone) start LM badly: pub_torus_sunrise 36.6 -> 37.2 dB median,
+  // are gone) start LM badly: pub_torus_sunrise 36.3 -> 37.1 dB median,
   // fast, 4 seeds. Without it the re-solve lost 5 dB on a sunsky seed.
   if (fit_model.bounce) ResolveAmplitudes(fit_model, run->d->weight, run->d->targets, &lighting);
   // Lobes not yet in the model carry light the refinement must not miss:

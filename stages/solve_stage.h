@@ -21,8 +21,7 @@ struct SolveOptions {
   std::string visibility = "spheres";  // sg: spheres (sphere-tree sigmoid) | exact (ray-cast mesh, slower)
   bool score_exact = false;          // sg, sg-paper: also score the estimate rendered with exact visibility
   // sg: light the casters reflect onto the plane (solver/caster_bounce.h):
-  // on | off | auto (exact visibility: on; spheres: fitted with and without,
-  // the lower held-out error kept).
+  // on | off | auto (fitted with and without, the lower held-out error kept).
   std::string bounce = "auto";
 
   // Message naming the bad option, or empty.

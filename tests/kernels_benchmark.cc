@@ -5,6 +5,7 @@
 
 #include <random>
 
+#include "solver/caster_bounce.h"
 #include "solver/cosine_integral.h"
 #include "solver/primitives.h"
 #include "solver/shadow_plane.h"
@@ -76,14 +77,47 @@ void BM_RenderShadowPlane(benchmark::State& state) {
 }
 BENCHMARK(BM_RenderShadowPlane)->Args({65536, 8})->Unit(benchmark::kMillisecond);
 
-void BM_SgCosineIntegral(benchmark::State& state) {
+// The exact quadrature and the bounce's table, over a sweep of sharpness.
+template <class Integral>
+void BM_CosineIntegral(benchmark::State& state, Integral integral) {
   double lambda = 1, c = 0.3;
   for (auto _ : state) {
-    benchmark::DoNotOptimize(SgCosineIntegral(lambda, c));
+    benchmark::DoNotOptimize(integral(lambda, c));
     lambda = lambda < 1000 ? lambda * 1.1 : 1;
   }
 }
-BENCHMARK(BM_SgCosineIntegral);
+BENCHMARK_CAPTURE(BM_CosineIntegral, exact, [](double l, double c) { return SgCosineIntegral(l, c).value; });
+BENCHMARK_CAPTURE(BM_CosineIntegral, tabulated, SgCosineIntegralTabulated);
+
+// The casters' bounce of a torus above the plane z = -0.3 (256 patches).
+const CasterBounce& TorusBounce() {
+  static const CasterBounce bounce = [] {
+    const TriangleMesh torus = MakeTorus(0.2, 0.06, 64, 32);
+    RayCaster casters;
+    casters.AddMesh(torus);
+    casters.Commit();
+    return CasterBounce({torus}, {Eigen::Vector3d::Constant(0.7)}, casters, Eigen::Vector3d(0, 0, -0.3),
+                        Eigen::Vector3d::UnitZ());
+  }();
+  return bounce;
+}
+
+// Patch irradiance of a lighting's lobes (every LM evaluation with the bounce).
+void BM_BounceIrradiance(benchmark::State& state) {
+  const auto axes = Axes(static_cast<int>(state.range(0)));
+  const std::vector<double> sharpness(axes.size(), 30.0);
+  for (auto _ : state) benchmark::DoNotOptimize(TorusBounce().Irradiance(axes, sharpness, nullptr));
+  state.SetItemsProcessed(state.iterations() * axes.size());
+}
+BENCHMARK(BM_BounceIrradiance)->Arg(16)->Unit(benchmark::kMillisecond);
+
+// Form factors of the fit pixels (once per fit set).
+void BM_BounceFormFactors(benchmark::State& state) {
+  const auto points = PlanePoints(static_cast<int>(state.range(0)));
+  for (auto _ : state) benchmark::DoNotOptimize(TorusBounce().FormFactors(points));
+  state.SetItemsProcessed(state.iterations() * points.size());
+}
+BENCHMARK(BM_BounceFormFactors)->Arg(6000)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace shadowsg
