@@ -28,8 +28,8 @@ void ProgressBar::Update(double fraction, const std::string& status) {
     std::fprintf(stderr, "\r%-12s [%s] %3d%% %6.1fs %s\033[K", label_.c_str(), bar.c_str(), percent, elapsed,
                  status.c_str());
   } else {
-    // Logs get a line every 10 %.
-    if (percent / 10 == last_percent_ / 10 && fraction < 1.0) return;
+    // Logs get a line when the work starts, then every 10 %.
+    if (last_percent_ >= 0 && percent / 10 == last_percent_ / 10 && fraction < 1.0) return;
     std::fprintf(stderr, "%s: %3d%% %.1fs %s\n", label_.c_str(), percent, elapsed, status.c_str());
   }
   std::fflush(stderr);

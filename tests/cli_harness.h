@@ -136,6 +136,19 @@ class CliProcess {
   double Elapsed() const {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
   }
+  // Polls the child's stderr until it holds `text` (true) or the child ended
+  // or `timeout_s` passed (false). A signal sent before the command is under
+  // way tests the loader, not the command: under the sanitizers on a loaded
+  // 2-core machine, reaching main() alone took over a second.
+  bool WaitForStderr(const std::string& text, double timeout_s) const {
+    while (Elapsed() < timeout_s) {
+      if (ReadWholeFile(err_path_).find(text) != std::string::npos) return true;
+      siginfo_t info{};
+      if (waitid(P_PID, pid_, &info, WEXITED | WNOHANG | WNOWAIT) == 0 && info.si_pid == pid_) return false;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    return false;
+  }
 
  private:
   pid_t pid_ = -1;

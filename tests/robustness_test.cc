@@ -87,9 +87,10 @@ TEST_P(Interrupt, LeavesEarlierOutputsIntactAndNoTemporaries) {
 
   // A long run into the same folder (the published optimiser, 20000 steps),
   // interrupted once it is under way.
-  CliProcess p({"solve", scene.string(), "--out", out.string(), "--method", "sg-paper", "--quiet", "--threads", "2"},
+  CliProcess p({"solve", scene.string(), "--out", out.string(), "--method", "sg-paper", "--threads", "2"},
                tmp.path());
-  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  ASSERT_TRUE(p.WaitForStderr("solve:", 60)) << "the solve never started";  // its first line
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
   for (int sig : GetParam().signals) {
     p.Signal(sig);
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
@@ -119,15 +120,16 @@ TEST(Interrupt, RenderKeepsTheEarlierImage) {
   const fs::path scene = Synth(tmp, testing::kTinySceneSpec, "scene");
   const fs::path out = tmp / "out" / "render.exr";
   const std::vector<std::string> base = {"render", scene.string(), "--lighting", (scene / "lights.json").string(),
-                                         "--out", out.string(), "--quiet", "--threads", "2"};
+                                         "--out", out.string(), "--threads", "2"};
   std::vector<std::string> quick = base, slow = base;
-  quick.insert(quick.end(), {"--spp", "1"});
+  quick.insert(quick.end(), {"--spp", "1", "--quiet"});
   slow.insert(slow.end(), {"--spp", "100000"});
   const CliRun first = RunCli(quick, tmp.path(), 60);
   ASSERT_TRUE(first.exited && first.code == 0) << first.Describe();
   const auto before = Snapshot(out.parent_path());
   CliProcess p(slow, tmp.path());
-  std::this_thread::sleep_for(std::chrono::milliseconds(1000));
+  ASSERT_TRUE(p.WaitForStderr("render:", 60)) << "the render never started";  // its progress line
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
   p.Signal(SIGINT);
   const CliRun r = p.Wait(60);
   ASSERT_TRUE(r.exited && !r.timed_out) << r.Describe();
