@@ -21,6 +21,7 @@
 #include "stages/io/json_util.h"
 #include "stages/io/scene_io.h"
 #include "stages/synth_stage.h"
+#include "quiet_context.h"
 #include "test_util.h"
 
 namespace shadowsg {
@@ -43,12 +44,7 @@ const char* kSpec = R"({
   "env_gt_height": 32
 })";
 
-StageContext QuietContext() {
-  StageContext ctx;
-  ctx.threads = 2;
-  ctx.quiet = true;
-  return ctx;
-}
+using shadowsg::testing::QuietContext;
 
 // One scene (with its sphere tree cached in the folder) for every test.
 class BenchTest : public ::testing::Test {
@@ -58,7 +54,7 @@ class BenchTest : public ::testing::Test {
     fs::remove_all(*root_);
     fs::create_directories(*root_);
     std::ofstream(*root_ / "spec.json") << kSpec;
-    RunSynthStage(ReadSynthSpec(*root_ / "spec.json"), SceneDir(), QuietContext());
+    RunSynthStage(ReadSynthSpec(*root_ / "spec.json"), SceneDir(), QuietContext(2));
   }
   static void TearDownTestSuite() {
     std::error_code ec;
@@ -159,7 +155,7 @@ TEST_F(BenchTest, WritesTablesChartsAndAPageThatLinksOnlyExistingFiles) {
   o.out_dir = tmp / "bench";
   o.methods = {"sg:fast", "sg:2", "sg-paper:30", "ss03:4", "ss03+:4", "sh21:4"};
   o.charts = HaveGnuplot();
-  const BenchSummary s = RunBench(o, QuietContext());
+  const BenchSummary s = RunBench(o, QuietContext(2));
   EXPECT_EQ(s.runs, 6);
   EXPECT_EQ(s.failed, 0);
   EXPECT_EQ(s.reused, 0);
@@ -212,18 +208,18 @@ TEST_F(BenchTest, WritesTablesChartsAndAPageThatLinksOnlyExistingFiles) {
   EXPECT_TRUE(MissingLinks(o.out_dir / "index.html").empty());
 
   // A second bench reuses every run.
-  const BenchSummary again = RunBench(o, QuietContext());
+  const BenchSummary again = RunBench(o, QuietContext(2));
   EXPECT_EQ(again.reused, 6);
 
   // The page renders in headless Chromium with every image decoded; a
   // corrupt picture is reported (install-deps.sh installs chromium).
   if (FindExecutable("chromium")) {
     const fs::path shot = tmp / "shot.png";
-    EXPECT_NO_THROW(CheckHtmlInChromium(o.out_dir / "index.html", shot, QuietContext()));
+    EXPECT_NO_THROW(CheckHtmlInChromium(o.out_dir / "index.html", shot, QuietContext(2)));
     EXPECT_GT(fs::file_size(shot), 1000u);
     std::ofstream(o.out_dir / "runs" / "tiny" / "input.png", std::ios::trunc) << "not a png";
     try {
-      CheckHtmlInChromium(o.out_dir / "index.html", shot, QuietContext());
+      CheckHtmlInChromium(o.out_dir / "index.html", shot, QuietContext(2));
       ADD_FAILURE() << "a corrupt image passed the Chromium check";
     } catch (const InputError& e) {
       EXPECT_NE(std::string(e.what()).find("did not load"), std::string::npos) << e.what();
@@ -259,7 +255,7 @@ TEST_F(BenchTest, PerturbedScenesChangeWhatTheyShould) {
   auto write = [&](const std::string& family, double size) {
     for (const Perturbation& p : StabilityPerturbations(false, 1))
       if (p.family == family && p.size == size) {
-        WritePerturbedScene(SceneDir(), p, tmp / p.name, 7, QuietContext());
+        WritePerturbedScene(SceneDir(), p, tmp / p.name, 7, QuietContext(2));
         return LoadScene(tmp / p.name);
       }
     ADD_FAILURE() << family << " " << size;
@@ -307,7 +303,7 @@ TEST_F(BenchTest, StabilityScoresPerturbedSolvesOnTheCleanScene) {
   o.quick = true;  // one size per family
   o.seeds = 1;
   o.charts = HaveGnuplot();
-  const BenchSummary s = RunBench(o, QuietContext());
+  const BenchSummary s = RunBench(o, QuietContext(2));
   EXPECT_EQ(s.failed, 0);
   // 8 perturbations + 1 seed, for two methods; the sphere tree does not reach ss03.
   EXPECT_EQ(s.stability_runs, 9 + 8);

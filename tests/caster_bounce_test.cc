@@ -18,6 +18,7 @@
 #include "stages/io/scene_io.h"
 #include "stages/solve_stage.h"
 #include "stages/synth_stage.h"
+#include "quiet_context.h"
 #include "test_util.h"
 
 namespace shadowsg {
@@ -25,12 +26,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-StageContext QuietContext() {
-  StageContext ctx;
-  ctx.quiet = true;
-  ctx.threads = 2;
-  return ctx;
-}
+using shadowsg::testing::QuietContext;
 
 // A sphere of radius 0.5 resting on the plane z = 0 at the origin, albedo 0.6.
 struct SphereOnPlane {
@@ -123,7 +119,7 @@ std::string TwoCasterSpec(int bounces) {
 
 fs::path SynthScene(const shadowsg::testing::TempDir& tmp, const std::string& name, const std::string& spec) {
   std::ofstream(tmp / (name + ".json")) << spec;
-  RunSynthStage(ReadSynthSpec(tmp / (name + ".json")), tmp / name, QuietContext());
+  RunSynthStage(ReadSynthSpec(tmp / (name + ".json")), tmp / name, QuietContext(2));
   return tmp / name;
 }
 
@@ -136,7 +132,7 @@ TEST(CasterBounce, MatchesThePathTracersBounces) {
   const RayCaster casters = BuildRayCaster(scene.Casters());
   const PlanePixels pixels = FindPlanePixels(scene, casters);
   ASSERT_GT(pixels.size(), 1000u);
-  ShadowPlaneModel model = PrepareShadowPlane(scene, direct, pixels, ShadingModel::kSg, QuietContext());
+  ShadowPlaneModel model = PrepareShadowPlane(scene, direct, pixels, ShadingModel::kSg, QuietContext(2));
   const SgLighting lighting = *ReadSynthSpec(tmp / "direct.json").lights.sg;
   const std::vector<Eigen::Vector3f> plain = RenderShadowPlane(model, lighting);
   AddCasterBounce(scene, &model);
@@ -163,7 +159,7 @@ Json Solve(const fs::path& scene, const fs::path& out, const std::string& bounce
   SolveOptions o;
   o.budget = "fast";
   o.bounce = bounce;
-  RunSolve(scene, out, o, QuietContext());
+  RunSolve(scene, out, o, QuietContext(2));
   return ReadJsonFile(out / "metrics.json");
 }
 

@@ -24,6 +24,7 @@
 #include "stages/render_stage.h"
 #include "stages/sphere_tree_stage.h"
 #include "stages/synth_stage.h"
+#include "quiet_context.h"
 #include "test_util.h"
 
 namespace shadowsg {
@@ -51,11 +52,7 @@ const char* kSpec = R"({
   "env_gt_height": 64
 })";
 
-StageContext QuietContext() {
-  StageContext ctx;
-  ctx.quiet = true;
-  return ctx;
-}
+using shadowsg::testing::QuietContext;
 
 // One synthesised scene for the whole suite (rendering it is the slow part).
 class Composite : public ::testing::Test {

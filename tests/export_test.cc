@@ -15,6 +15,7 @@
 #include "solver/metrics.h"
 #include "stages/io/image_io.h"
 #include "stages/io/lighting_io.h"
+#include "quiet_context.h"
 #include "test_util.h"
 
 namespace shadowsg {
@@ -23,11 +24,7 @@ namespace {
 namespace fs = std::filesystem;
 using shadowsg::testing::TempDir;
 
-StageContext QuietContext() {
-  StageContext ctx;
-  ctx.quiet = true;
-  return ctx;
-}
+using shadowsg::testing::QuietContext;
 
 // A sky with a gradient, a sharp warm spot and a dark ground.
 Image TestSky(int height) {

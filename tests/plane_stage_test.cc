@@ -16,6 +16,7 @@
 #include "stages/io/image_io.h"
 #include "stages/synth_stage.h"
 #include "multiview_capture.h"
+#include "quiet_context.h"
 #include "test_util.h"
 
 namespace shadowsg {
@@ -104,18 +105,14 @@ PlaneStageOptions Options() {
   return o;
 }
 
-StageContext Quiet() {
-  StageContext ctx;
-  ctx.quiet = true;
-  return ctx;
-}
+using shadowsg::testing::QuietContext;
 
 TEST(PlaneStage, RegisteredFrameAndMetricScaleFromTwoPoints) {
   const ModelCase mc = MakeModel(16, 1500, 400, 0.001, 1);
   PlaneStageOptions o = Options();
   o.distance = (mc.ground_a - mc.ground_b).norm();
   o.distance_points = mc.ground_ids;
-  const PlaneStageResult r = RegisterPlane(mc.model, o, Quiet());
+  const PlaneStageResult r = RegisterPlane(mc.model, o, QuietContext());
   EXPECT_EQ(r.scale_source, "distance");
   EXPECT_NEAR(r.scale * mc.model_units_per_metre, 1.0, 1e-9);
   EXPECT_EQ(r.registered_images, 17);
@@ -153,7 +150,7 @@ TEST(PlaneStage, ScaleFromTwoHeroPixelsOnThePlane) {
   o.distance = 0.5;
   o.distance_pixels = {*ProjectToPixel(hero, Eigen::Vector3d(0, 0, 0)),
                        *ProjectToPixel(hero, Eigen::Vector3d(0.3, 0.4, 0))};
-  const PlaneStageResult r = RegisterPlane(mc.model, o, Quiet());
+  const PlaneStageResult r = RegisterPlane(mc.model, o, QuietContext());
   // Box points within the inlier threshold of the ground pull the plane up
   // by ~1e-4 of the viewing distance.
   EXPECT_NEAR(r.scale * mc.model_units_per_metre, 1.0, 1e-3);
@@ -162,7 +159,7 @@ TEST(PlaneStage, ScaleFromTwoHeroPixelsOnThePlane) {
 
 TEST(PlaneStage, WithoutScaleLengthsStayInColmapUnits) {
   const ModelCase mc = MakeModel(12, 1000, 200, 0.0, 3);
-  const PlaneStageResult r = RegisterPlane(mc.model, Options(), Quiet());
+  const PlaneStageResult r = RegisterPlane(mc.model, Options(), QuietContext());
   EXPECT_EQ(r.scale_source, "none");
   EXPECT_EQ(r.scale, 1.0);
   EXPECT_NEAR(r.hero.c2w(2, 3), 1.0 * mc.model_units_per_metre, 1e-3 * mc.model_units_per_metre);
@@ -181,7 +178,7 @@ TEST(PlaneStage, HeroIntrinsicsFromCameraJson) {
   WriteJsonFile(tmp / "camera.json", CameraFileToJson(cf));
   PlaneStageOptions o = Options();
   o.camera = tmp / "camera.json";
-  StageContext ctx = Quiet();
+  StageContext ctx = QuietContext();
   const PlaneStageResult r = RegisterPlane(mc.model, o, ctx);
   EXPECT_EQ(r.hero_intrinsics, "camera.json");
   EXPECT_EQ(r.hero.width, 320);
@@ -203,11 +200,11 @@ TEST(PlaneStage, ClearErrors) {
   const ModelCase mc = MakeModel(6, 1000, 100, 0.0, 5);
   PlaneStageOptions o = Options();
   o.min_registered = 10;
-  EXPECT_NE(ErrorOf([&] { RegisterPlane(mc.model, o, Quiet()); }).find("registered only 7 image(s)"),
+  EXPECT_NE(ErrorOf([&] { RegisterPlane(mc.model, o, QuietContext()); }).find("registered only 7 image(s)"),
             std::string::npos);
   o = Options();
   o.hero = "missing.png";
-  EXPECT_NE(ErrorOf([&] { RegisterPlane(mc.model, o, Quiet()); }).find("not registered by COLMAP"),
+  EXPECT_NE(ErrorOf([&] { RegisterPlane(mc.model, o, QuietContext()); }).find("not registered by COLMAP"),
             std::string::npos);
   // Scattered points: no dominant plane.
   ModelCase scattered = MakeModel(8, 0, 0, 0.0, 6);
@@ -219,12 +216,12 @@ TEST(PlaneStage, ClearErrors) {
     p.xyz = Eigen::Vector3d(uni(rng), uni(rng), uni(rng)) * 3;
     scattered.model.points.push_back(p);
   }
-  EXPECT_NE(ErrorOf([&] { RegisterPlane(scattered.model, Options(), Quiet()); }).find("no dominant plane"),
+  EXPECT_NE(ErrorOf([&] { RegisterPlane(scattered.model, Options(), QuietContext()); }).find("no dominant plane"),
             std::string::npos);
   // Options.
   o = Options();
   o.distance = 1;
-  EXPECT_NE(ErrorOf([&] { RegisterPlane(mc.model, o, Quiet()); }).find("--distance needs its two points"),
+  EXPECT_NE(ErrorOf([&] { RegisterPlane(mc.model, o, QuietContext()); }).find("--distance needs its two points"),
             std::string::npos);
 }
 
@@ -237,11 +234,11 @@ TEST(PlaneStage, MissingColmapIsOneClearLine) {
   o.hero = "hero.png";
   o.out = tmp / "plane.json";
   o.colmap = "shadowsg-no-such-colmap";
-  const std::string e = ErrorOf([&] { RunPlaneStage(o, Quiet()); });
+  const std::string e = ErrorOf([&] { RunPlaneStage(o, QuietContext()); });
   EXPECT_NE(e.find("COLMAP not found on PATH"), std::string::npos) << e;
   EXPECT_EQ(e.find('\n'), std::string::npos);
   o.hero = "other.png";
-  EXPECT_NE(ErrorOf([&] { RunPlaneStage(o, Quiet()); }).find("not among the 1 photos"), std::string::npos);
+  EXPECT_NE(ErrorOf([&] { RunPlaneStage(o, QuietContext()); }).find("not among the 1 photos"), std::string::npos);
 }
 
 TEST(PlaneStage, ReadsTheLargestModelOfAFolderAndWritesPlaneJson) {
@@ -255,7 +252,7 @@ TEST(PlaneStage, ReadsTheLargestModelOfAFolderAndWritesPlaneJson) {
   o.colmap_model = tmp / "sparse";
   o.hero = "hero.png";
   o.out = tmp / "out" / "plane.json";
-  const PlaneStageResult r = RunPlaneStage(o, Quiet());
+  const PlaneStageResult r = RunPlaneStage(o, QuietContext());
   EXPECT_EQ(r.registered_images, 13);
   const PlaneFile f = ReadPlaneFile(tmp / "out" / "plane.json");
   EXPECT_EQ(f.xyz, Eigen::Vector3d::Zero());

@@ -18,6 +18,7 @@
 #include "stages/io/mesh_io.h"
 #include "stages/io/scene_io.h"
 #include "multiview_capture.h"
+#include "quiet_context.h"
 #include "test_util.h"
 
 namespace shadowsg {
@@ -33,12 +34,7 @@ Eigen::Matrix4d Inverse(const Eigen::Matrix4d& T) {
   return inv;
 }
 
-StageContext Quiet() {
-  StageContext ctx;
-  ctx.quiet = true;
-  ctx.threads = 2;
-  return ctx;
-}
+using shadowsg::testing::QuietContext;
 
 // Writes the stage inputs for the capture's hero view into tmp; `world_scale`
 // multiplies plane.json's lengths (a world in other units).
@@ -106,7 +102,7 @@ TEST(RegisterStage, WritesASceneThatMatchesTheTruth) {
     for (int x = 20; x < 30; ++x) clipped.at(x, y, 0) = 1;
   WriteLdr(tmp / "linear_clipped.png", clipped);
 
-  const RegisterStageResult r = RunRegisterStage(in.options, Quiet());
+  const RegisterStageResult r = RunRegisterStage(in.options, QuietContext(2));
   EXPECT_EQ(r.units_from, "plane.json");
   ASSERT_TRUE(r.plane_c_ratio.has_value());
   EXPECT_NEAR(*r.plane_c_ratio, 1.0, 1e-9);
@@ -177,7 +173,7 @@ TEST(RegisterStage, WorldWithoutScaleTakesPoseUnits) {
   in.options.albedo_mode = AlbedoMode::kConvention;
   for (bool plane_c : {true, false}) {
     WritePlaneAndPose(tmp, in, 2.5, plane_c);  // plane.json in units 2.5 x smaller than metres
-    const RegisterStageResult r = RunRegisterStage(in.options, Quiet());
+    const RegisterStageResult r = RunRegisterStage(in.options, QuietContext(2));
     EXPECT_EQ(r.units_from, plane_c ? "plane_c" : "contact");
     // The contact scale comes from the mesh as read back from OBJ (~7 digits).
     EXPECT_NEAR(r.pose_units_per_world_unit, 0.4, 1e-6);
@@ -199,13 +195,13 @@ TEST(RegisterStage, GivenAlbedoAndClearErrors) {
   in.options.albedo_mode = AlbedoMode::kGiven;
   in.options.albedo = Eigen::Vector3d(0.5, 0.4, 0.3);
   in.options.snap_to_plane = true;
-  const RegisterStageResult r = RunRegisterStage(in.options, Quiet());
+  const RegisterStageResult r = RunRegisterStage(in.options, QuietContext(2));
   EXPECT_EQ(r.scene.plane.diffuse, Eigen::Vector3d(0.5, 0.4, 0.3));
   EXPECT_EQ(r.albedo_source, "given");
 
   RegisterStageOptions bad = in.options;
   bad.mesh = tmp / "missing.obj";
-  EXPECT_THROW(RunRegisterStage(bad, Quiet()), InputError);
+  EXPECT_THROW(RunRegisterStage(bad, QuietContext(2)), InputError);
   bad = in.options;
   bad.camera = tmp / "camera_wrong.json";
   CameraFile cf;
@@ -213,7 +209,7 @@ TEST(RegisterStage, GivenAlbedoAndClearErrors) {
   cf.camera.width = 100;  // another aspect ratio
   WriteJsonFile(bad.camera, CameraFileToJson(cf));
   try {
-    RunRegisterStage(bad, Quiet());
+    RunRegisterStage(bad, QuietContext(2));
     FAIL() << "no error";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("but the image is 320x240"), std::string::npos) << e.what();

@@ -12,6 +12,7 @@
 #include "stages/io/lighting_io.h"
 #include "stages/io/scene_io.h"
 #include "stages/render_stage.h"
+#include "quiet_context.h"
 #include "test_util.h"
 
 namespace shadowsg {
@@ -44,11 +45,7 @@ fs::path WriteSpec(const TempDir& tmp, const std::string& text) {
   return p;
 }
 
-StageContext QuietContext() {
-  StageContext ctx;
-  ctx.quiet = true;
-  return ctx;
-}
+using shadowsg::testing::QuietContext;
 
 TEST(Synth, WritesASceneFolderThatLoadSceneAccepts) {
   TempDir tmp;
