@@ -12,6 +12,7 @@
 
 #include "calib/error.h"
 #include "solver/sg_paper_solver.h"
+#include "solver/sg_refine_cost.h"
 #include "solver/nnls.h"
 #include "solver/sg_shading.h"
 
@@ -176,99 +177,6 @@ void AtomColumn(const ShadowPlaneModel& model, const Eigen::MatrixXf& theta, con
                   model.cap_occlusion ? model.occluder_cos[r] : kNoOcclusionCap).value);
 }
 
-// The Ceres problem of the refinement: one residual block over every fit pixel
-// and channel, parameter blocks per lobe: axis (3, on the sphere),
-// log-sharpness (1), amplitude (3, >= 0).
-class RefineCost final : public ceres::CostFunction {
- public:
-  // Residuals over every point of `model`; targets in the same order.
-  RefineCost(const ShadowPlaneModel& model, const std::vector<double>& weight,
-             const std::vector<Eigen::Vector3f>& targets, int lobes)
-      : model_(model), targets_(targets), lobes_(lobes) {
-    sqrt_w_.resize(weight.size());
-    for (size_t k = 0; k < weight.size(); ++k) sqrt_w_[k] = std::sqrt(weight[k]);
-    set_num_residuals(static_cast<int>(3 * model.points.size()));
-    for (int i = 0; i < lobes; ++i) {
-      mutable_parameter_block_sizes()->push_back(3);
-      mutable_parameter_block_sizes()->push_back(1);
-      mutable_parameter_block_sizes()->push_back(3);
-    }
-  }
-
-  bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
-    std::vector<Eigen::Vector3d> axes(lobes_);
-    std::vector<double> lambda(lobes_);
-    std::vector<Eigen::Vector3d> amp(lobes_);
-    std::vector<ProductLobe> products(lobes_);
-    for (int i = 0; i < lobes_; ++i) {
-      axes[i] = Eigen::Vector3d(params[3 * i][0], params[3 * i][1], params[3 * i][2]).normalized();
-      lambda[i] = std::exp(params[3 * i + 1][0]);
-      amp[i] = Eigen::Vector3d(params[3 * i + 2][0], params[3 * i + 2][1], params[3 * i + 2][2]);
-      products[i] = EvalProductLobe(axes[i], lambda[i], model_.normal, model_.cosine);
-    }
-    Eigen::MatrixXf theta;
-    std::vector<Eigen::Vector3f> witness;
-    std::vector<float> caps;
-    for (const ProductLobe& p : products) caps.push_back(VisibilityCap(p));
-    if (!model_.exact) PlaneAngles(model_, axes, caps, &theta, &witness);
-    std::vector<ExactVisibility::Lobe> exact_lobes;
-    if (model_.exact)
-      for (int i = 0; i < lobes_; ++i) exact_lobes.push_back(model_.exact->Prepare(axes[i], lambda[i]));
-    const long np = static_cast<long>(model_.points.size());
-    // The casters' bounce of each lobe per channel (the value only; see caster_bounce.h).
-    std::array<Eigen::MatrixXf, 3> bounce;
-    if (model_.bounce) {
-      bounce = BounceLobeShadingRgb(model_, BounceIrradiance(model_, axes, lambda));
-    }
-#pragma omp parallel for schedule(static)
-    for (long k = 0; k < np; ++k) {
-      const Eigen::Vector3d rho = model_.albedo[k].cast<double>() / M_PI * sqrt_w_[k];
-      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-      for (int j = 0; j < lobes_; ++j) {
-        auto sphere_shade = [&] {
-          const Eigen::Vector3d u = witness[k * lobes_ + j].cast<double>();
-          Eigen::Vector3d dtheta = Eigen::Vector3d::Zero();
-          if (jacobians && !u.isZero()) {
-            const double c = std::clamp(u.dot(axes[j]), -1.0, 1.0);
-            dtheta = -u / std::max(std::sqrt(1 - c * c), 1e-9);
-          }
-          return ShadeLobe(products[j], theta(k, j), dtheta,
-                           model_.cap_occlusion ? model_.occluder_cos[k] : kNoOcclusionCap);
-        };
-        const LobeShading s =
-            model_.exact ? model_.exact->Shade(model_.exact_table->View(k), exact_lobes[j], jacobians != nullptr)
-                         : sphere_shade();
-        const Eigen::Vector3d b = model_.bounce ? Eigen::Vector3d(bounce[0](k, j), bounce[1](k, j), bounce[2](k, j))
-                                                : Eigen::Vector3d::Zero();
-        sum += (s.value + b.array()).matrix().cwiseProduct(amp[j]);
-        if (!jacobians) continue;
-        for (int c = 0; c < 3; ++c) {
-          const long row = 3 * k + c;
-          if (double* J = jacobians[3 * j]) {
-            // Ceres passes the ambient 3-vector; our axis is its normalisation.
-            const Eigen::Vector3d v(params[3 * j][0], params[3 * j][1], params[3 * j][2]);
-            const Eigen::Vector3d g = (Eigen::Matrix3d::Identity() - axes[j] * axes[j].transpose()) *
-                                      (rho[c] * amp[j][c] * s.dvalue_dmu) / v.norm();
-            for (int d = 0; d < 3; ++d) J[row * 3 + d] = g[d];
-          }
-          if (double* J = jacobians[3 * j + 1]) J[row] = rho[c] * amp[j][c] * s.dvalue_dlambda * lambda[j];
-          if (double* J = jacobians[3 * j + 2])
-            for (int d = 0; d < 3; ++d) J[row * 3 + d] = d == c ? rho[c] * (s.value + b[c]) : 0.0;
-        }
-      }
-      for (int c = 0; c < 3; ++c)
-        residuals[3 * k + c] = rho[c] * sum[c] - sqrt_w_[k] * targets_[k][c];
-    }
-    return true;
-  }
-
- private:
-  const ShadowPlaneModel& model_;
-  const std::vector<Eigen::Vector3f>& targets_;
-  std::vector<double> sqrt_w_;
-  int lobes_;
-};
-
 class ProgressCallback final : public ceres::IterationCallback {
  public:
   ProgressCallback(const ProgressFn& fn, int max_iterations) : fn_(fn), max_(max_iterations) {}
@@ -398,7 +306,8 @@ int RefineLobes(const ShadowPlaneModel& model, const std::vector<double>& weight
     for (int d = 0; d < 3; ++d) p[4 + d] = lighting->lobes[i].amplitude[d];
     blocks.insert(blocks.end(), {p, p + 3, p + 4});
   }
-  problem.AddResidualBlock(new RefineCost(model, weight, targets, L), nullptr, blocks);
+  // The bounce's sharpness column pays only under exact visibility (sg_refine_cost.h).
+  problem.AddResidualBlock(new RefineCost(model, weight, targets, L, model.exact != nullptr), nullptr, blocks);
   for (int i = 0; i < L; ++i) {
     problem.SetManifold(&params[7 * i], new ceres::SphereManifold<3>());
     problem.SetParameterLowerBound(&params[7 * i + 3], 0, std::log(kMinSharpness));

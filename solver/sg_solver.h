@@ -15,8 +15,8 @@
 // 4. Size path: the k strongest merged lobes, k = 1, 2, ..., each model
 //    started from the previous one plus the next lobe (with the bounce:
 //    every amplitude re-solved by NNLS first) and refined by Levenberg-Marquardt
-//    (Ceres: axes on the sphere, log-sharpness, non-negative amplitudes,
-//    analytic Jacobians). The smallest model within `size_tolerance` of the
+//    (Ceres: axes on the sphere, log-sharpness, non-negative amplitudes;
+//    solver/sg_refine_cost.h). The smallest model within `size_tolerance` of the
 //    best held-out error is kept ("no more lobes than the scene needs") and
 //    refined further. (A path from large to small was tried: worse on the
 //    closed-form three-lobe test, 34 dB against 98.)

@@ -1,0 +1,51 @@
+// The least-squares problem of the `sg` solver's Levenberg-Marquardt
+// refinement (solver/sg_solver.h), as one Ceres cost: one residual block over
+// every point of a shadow-plane model and channel,
+//
+//   r(k, c) = sqrt(w_k) (rho_kc/pi sum_i a_ic (S_i(x_k) + B_ic(x_k)) - target_kc),
+//
+// with parameter blocks per lobe: axis (3, a free vector, normalised here;
+// callers put it on ceres::SphereManifold), log-sharpness (1), amplitude (3).
+// S is the direct shading under the model's visibility (sphere-tree sigmoid
+// or exact), B the casters' bounce when the model has it.
+//
+// Jacobians are analytic for the direct part. The bounce carries its
+// amplitude part and, with bounce_sharpness, its sharpness part by a forward
+// difference: at a fixed amplitude a lobe's bounce falls with sharpness (its
+// power goes as 1/lambda), and without that column LM mispredicts every step
+// that sharpens a sun whose bounce is large (pub_torus_sunsky, exact
+// visibility: the sun stalled at lambda 131 and 36.0 dB; with it 1894 and
+// 41.9). The solver asks for it with exact visibility only: with the
+// sphere-tree sigmoid it changed no median by more than 0.2 dB (fast, 10
+// seeds, three scenes with the bounce) for more time (median solve 5.0 ->
+// 5.8 s on pub_torus_sunrise, 5.1 -> 6.7 on interior). The
+// bounce's axis part is left out: a forward difference of it lowered the
+// median by 0.2-0.9 dB (fast, 3 seeds, pub_torus_sunrise and interior).
+#pragma once
+
+#include <ceres/ceres.h>
+
+#include <Eigen/Dense>
+#include <vector>
+
+#include "solver/shadow_plane.h"
+
+namespace shadowsg {
+
+class RefineCost final : public ceres::CostFunction {
+ public:
+  // Residuals over every point of `model`; targets in the same order.
+  RefineCost(const ShadowPlaneModel& model, const std::vector<double>& weight,
+             const std::vector<Eigen::Vector3f>& targets, int lobes, bool bounce_sharpness = true);
+
+  bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override;
+
+ private:
+  const ShadowPlaneModel& model_;
+  const std::vector<Eigen::Vector3f>& targets_;
+  std::vector<double> sqrt_w_;
+  int lobes_;
+  bool bounce_sharpness_;
+};
+
+}  // namespace shadowsg
