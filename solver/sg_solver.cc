@@ -83,25 +83,6 @@ constexpr double kSizeNoiseFloor = 1e-6;
 // kShadowEmphasis in full shadow (relative drop below the lit level).
 constexpr double kShadowEmphasis = 4.0;
 
-// Fits of the models with and without the bounce race (SolveSg): after
-// kRaces[i].steps steps of both size paths, a model whose best held-out
-// error is kRaces[i].margin times the other's stops. (After 2 steps and at
-// 1.5x the race dropped the later winner on pub_torus_sunrise, balanced
-// budget: its paths fall late. Stopping a model 5x behind after 2 steps
-// changed no result in 40 fast runs (four scenes x 10 seeds) and 10
-// balanced ones (sunrise, interior), and took 14 % off fast sunrise.)
-struct RaceRule {
-  size_t steps;
-  double margin;
-};
-constexpr RaceRule kRaces[] = {{2, 5.0}, {4, 2.0}};
-
-bool TrailsOut(size_t steps, size_t other_steps, double best, double other_best) {
-  for (const RaceRule& r : kRaces)
-    if (steps >= r.steps && other_steps >= r.steps && best > r.margin * other_best) return true;
-  return false;
-}
-
 template <typename T>
 std::vector<T> Gather(const std::vector<T>& v, const std::vector<size_t>& idx);
 
@@ -644,6 +625,22 @@ FitResult FinishFit(FitRun&& run, double signal, const SgSolverOptions& o) {
 
 }  // namespace
 
+bool BounceRaceDrops(size_t steps, size_t other_steps, double best, double other_best) {
+  // After 2 steps at 1.5x the race dropped the later winner on
+  // pub_torus_sunrise, balanced budget: its paths fall late. Stopping a
+  // model 5x behind after 2 steps changed no result in 40 fast runs (four
+  // scenes x 10 seeds) and 10 balanced ones (sunrise, interior), and took
+  // 14 % off fast sunrise.
+  struct Rule {
+    size_t steps;
+    double margin;
+  };
+  constexpr Rule kRules[] = {{2, 5.0}, {4, 2.0}};
+  for (const Rule& r : kRules)
+    if (steps >= r.steps && other_steps >= r.steps && best > r.margin * other_best) return true;
+  return false;
+}
+
 SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3f>& targets,
                    const SgSolverOptions& o, SgSolverSummary* summary, const ProgressFn& progress) {
   const auto start = Clock::now();
@@ -688,7 +685,8 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
       run[v] = StartFit(data, variant(v).bounce != nullptr, hold_for(v), hold_targets, axes, o, sub);
     }
     // The models' size paths step side by side; one whose best held-out
-    // error trails the other's far enough (kRaces) stops (this restart only).
+    // error trails the other's far enough (BounceRaceDrops) stops (this
+    // restart only).
     std::vector<char> racing(nv, 1);
     std::vector<double> raced(nv, std::numeric_limits<double>::infinity());
     while (std::count(racing.begin(), racing.end(), 1) > 1) {
@@ -699,7 +697,7 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
       for (size_t v = 0; v < nv; ++v)
         for (size_t w = 0; w < nv; ++w)
           if (v != w && racing[v] && racing[w] &&
-              TrailsOut(run[v].path.size(), run[w].path.size(), raced[v], raced[w]))
+              BounceRaceDrops(run[v].path.size(), run[w].path.size(), raced[v], raced[w]))
             racing[v] = 0;
       if (!stepped) break;
     }

@@ -86,6 +86,12 @@ struct SgSolverSummary {
   double theta_seconds = 0, select_seconds = 0, refine_seconds = 0, seconds = 0;
 };
 
+// The race between the fits with and without the bounce (step 6): after
+// `steps` steps of its size path (the other's after other_steps), a model
+// whose best held-out error is `best` against the other's other_best stops
+// when it trails 5x after two steps or 2x after four.
+bool BounceRaceDrops(size_t steps, size_t other_steps, double best, double other_best);
+
 // `model` must use CosineModel::kExact for the fit to match its renders.
 SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3f>& targets,
                    const SgSolverOptions& options, SgSolverSummary* summary, const ProgressFn& progress = {});

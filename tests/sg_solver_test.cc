@@ -117,6 +117,19 @@ TEST(SgSolver, RestartsKeepTheBestHeldOutFitWithinBounds) {
   EXPECT_DOUBLE_EQ(s1.restart_heldout_mse[0], s.restart_heldout_mse[0]);
 }
 
+// A clear loser stops after two steps, a close one only after four at 2x;
+// neither before the other model has taken as many steps.
+TEST(SgSolver, BounceRaceDropsOnlyAClearLoser) {
+  EXPECT_FALSE(BounceRaceDrops(1, 1, 100.0, 1.0));
+  EXPECT_TRUE(BounceRaceDrops(2, 2, 5.1, 1.0));
+  EXPECT_FALSE(BounceRaceDrops(2, 1, 5.1, 1.0));
+  EXPECT_FALSE(BounceRaceDrops(2, 2, 4.9, 1.0));
+  EXPECT_FALSE(BounceRaceDrops(3, 3, 4.9, 1.0));
+  EXPECT_TRUE(BounceRaceDrops(4, 4, 2.1, 1.0));
+  EXPECT_FALSE(BounceRaceDrops(4, 4, 1.9, 1.0));
+  EXPECT_FALSE(BounceRaceDrops(6, 6, 1.0, 2.1));  // the leader never stops
+}
+
 TEST(SgPaper, ReducesLossPrunesAndIsDeterministic) {
   ShadowPlaneModel model = TestPlaneModel(32, CosineModel::kSgProduct);
   const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, Cases()[0].truth);
