@@ -34,14 +34,13 @@
 // model). W(j, p) gathers the patch's downward directions that reach the
 // plane near p unblocked, cos-weighted.
 //
-// Not modelled: the caster hiding its own patches from x (patches are kept
-// when they face x; a ray per point and patch for it was tried: median of
-// three seeds 0.3 dB lower on pub_torus_sunrise, 0.5 on interior, and 2 s
-// more a full render),
-// and longer paths. Derivatives of B with respect to a lobe's axis and
-// sharpness are not provided: B is linear in the amplitudes and a slow
-// function of the rest (solver/sg_refine_cost.h differentiates it in
-// sharpness numerically).
+// Not modelled: longer paths, and the caster hiding its own patches from x
+// (patches are kept when they face x; a ray per point and patch for it was
+// tried: median of three seeds 0.3 dB lower on pub_torus_sunrise, 0.5 on
+// interior, and 2 s more a full render). Derivatives of B with respect to a
+// lobe's axis and sharpness are not provided: B is linear in the amplitudes
+// and a slow function of the rest (solver/sg_refine_cost.h differentiates it
+// in sharpness numerically).
 #pragma once
 
 #include <Eigen/Dense>

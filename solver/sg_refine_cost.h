@@ -36,7 +36,7 @@ class RefineCost final : public ceres::CostFunction {
  public:
   // Residuals over every point of `model`; targets in the same order.
   RefineCost(const ShadowPlaneModel& model, const std::vector<double>& weight,
-             const std::vector<Eigen::Vector3f>& targets, int lobes, bool bounce_sharpness = true);
+             const std::vector<Eigen::Vector3f>& targets, int lobes, bool bounce_sharpness);
 
   bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override;
 

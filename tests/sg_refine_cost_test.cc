@@ -89,7 +89,7 @@ TEST(RefineCost, SharpnessColumnCarriesTheBounce) {
   const ShadowPlaneModel direct = ModelWithBounce(false), bounced = ModelWithBounce(true);
   const std::vector<Eigen::Vector3f> targets(direct.points.size(), Eigen::Vector3f::Constant(0.5f));
   const std::vector<double> weight(direct.points.size(), 1.0);
-  const RefineCost direct_cost(direct, weight, targets, 2), bounced_cost(bounced, weight, targets, 2);
+  const RefineCost direct_cost(direct, weight, targets, 2, true), bounced_cost(bounced, weight, targets, 2, true);
   const RefineCost amplitude_only(bounced, weight, targets, 2, /*bounce_sharpness=*/false);
   const auto blocks = Lobes();
   std::vector<std::vector<double>> jac, jac_plain;
@@ -116,7 +116,7 @@ TEST(RefineCost, AmplitudeColumnsMatchDifferences) {
   const ShadowPlaneModel bounced = ModelWithBounce(true);
   const std::vector<Eigen::Vector3f> targets(bounced.points.size(), Eigen::Vector3f::Constant(0.5f));
   const std::vector<double> weight(bounced.points.size(), 2.0);
-  const RefineCost cost(bounced, weight, targets, 2);
+  const RefineCost cost(bounced, weight, targets, 2, true);
   auto blocks = Lobes();
   std::vector<std::vector<double>> jac;
   const std::vector<double> r0 = Residuals(cost, blocks, &jac);
