@@ -103,6 +103,25 @@ std::vector<Eigen::Vector3d> FibonacciSphere(int count) {
   return dirs;
 }
 
+// e^{-x} I0(x) by Abramowitz & Stegun 9.8.1-9.8.2 (relative error < 2e-7):
+// std::cyl_bessel_i made UpperShare 130 us a lobe, most of the bounce
+// dictionary's time.
+double ScaledBesselI0(double x) {
+  x = std::abs(x);
+  if (x < 3.75) {
+    const double t = (x / 3.75) * (x / 3.75);
+    return std::exp(-x) *
+           (1 + t * (3.5156229 + t * (3.0899424 + t * (1.2067492 + t * (0.2659732 + t * (0.0360768 + t * 0.0045813))))));
+  }
+  const double t = 3.75 / x;
+  return (0.39894228 +
+          t * (0.01328592 +
+               t * (0.00225319 +
+                    t * (-0.00157565 +
+                         t * (0.00916281 + t * (-0.02057706 + t * (0.02635537 + t * (-0.01647633 + t * 0.00392377)))))))) /
+         std::sqrt(x);
+}
+
 // Share of a unit SG's power above the plane, s = mu.n: exact for broad
 // lobes (the power in z = w.n > 0 is 2 pi int_0^1 e^{lambda (z s - 1)}
 // I0(lambda sqrt(1 - z^2) sqrt(1 - s^2)) dz), and the normal approximation of
@@ -115,7 +134,8 @@ double UpperShare(double lambda, double s) {
   double sum = 0;
   for (int q = 0; q <= kSteps; ++q) {
     const double z = static_cast<double>(q) / kSteps;
-    const double f = std::exp(lambda * (z * s - 1)) * std::cyl_bessel_i(0.0, lambda * std::sqrt(std::max(0.0, 1 - z * z)) * rs);
+    const double x = lambda * std::sqrt(std::max(0.0, 1 - z * z)) * rs;
+    const double f = std::exp(lambda * (z * s - 1) + x) * ScaledBesselI0(x);
     sum += (q == 0 || q == kSteps ? 1 : q % 2 ? 4 : 2) * f;
   }
   const double upper = 2 * M_PI * sum / (3 * kSteps);
@@ -224,8 +244,10 @@ std::array<Eigen::MatrixXf, 3> CasterBounce::Irradiance(const std::vector<Eigen:
   // widening a low sun would otherwise push half of it below the horizon.
   const Eigen::MatrixXf num = visible_cos_ * weight, den = upper_cos_ * weight;
   std::vector<double> upper(nl);
+#pragma omp parallel for schedule(static) if (nl > 16)
   for (long i = 0; i < nl; ++i) upper[i] = UpperShare(sharpness[i], axes[i].normalized().dot(normal_));
   Eigen::MatrixXf e(static_cast<long>(patches_.size()), nl);
+#pragma omp parallel for schedule(static) if (nl > 16)
   for (long j = 0; j < e.rows(); ++j)
     for (long i = 0; i < nl; ++i) {
       const double v = den(j, i) > 0 ? upper[i] * num(j, i) / den(j, i) : 0.0;

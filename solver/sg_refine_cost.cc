@@ -19,60 +19,98 @@ RefineCost::RefineCost(const ShadowPlaneModel& model, const std::vector<double>&
     mutable_parameter_block_sizes()->push_back(1);
     mutable_parameter_block_sizes()->push_back(3);
   }
+  cache_.resize(lobes);
+}
+
+void RefineCost::Update(const std::vector<Eigen::Vector3d>& axes, const std::vector<double>& lambda,
+                        bool need_dbounce) const {
+  std::vector<int> stale, no_dbounce;
+  for (int i = 0; i < lobes_; ++i) {
+    LobeCache& c = cache_[i];
+    if (c.axis != axes[i] || c.lambda != lambda[i]) {
+      stale.push_back(i);
+      c.axis = axes[i];
+      c.lambda = lambda[i];
+      c.product = EvalProductLobe(axes[i], lambda[i], model_.normal, model_.cosine);
+      if (model_.exact) c.exact = model_.exact->Prepare(axes[i], lambda[i]);
+      c.dbounce = {};
+    }
+    if (need_dbounce && c.dbounce[0].size() == 0) no_dbounce.push_back(i);
+  }
+  auto pick = [&](const std::vector<int>& which, double log_step) {
+    std::vector<Eigen::Vector3d> a;
+    std::vector<double> l;
+    for (int i : which) a.push_back(axes[i]), l.push_back(lambda[i] * std::exp(log_step));
+    return std::make_pair(a, l);
+  };
+  if (!stale.empty() && !model_.exact) {
+    const auto [a, l] = pick(stale, 0);
+    std::vector<float> caps;
+    for (int i : stale) caps.push_back(VisibilityCap(cache_[i].product));
+    Eigen::MatrixXf theta;
+    std::vector<Eigen::Vector3f> witness;
+    PlaneAngles(model_, a, caps, &theta, &witness);
+    const long np = theta.rows(), ns = static_cast<long>(stale.size());
+    for (long s = 0; s < ns; ++s) {
+      LobeCache& c = cache_[stale[s]];
+      c.theta = theta.col(s);
+      c.witness.resize(np);
+      for (long k = 0; k < np; ++k) c.witness[k] = witness[k * ns + s];
+    }
+  }
+  if (!model_.bounce) return;
+  // The casters' bounce, and its log-sharpness derivative by a forward
+  // difference (see the header).
+  constexpr double kStep = 0.02;
+  if (!stale.empty()) {
+    const auto [a, l] = pick(stale, 0);
+    const std::array<Eigen::MatrixXf, 3> b = BounceLobeShadingRgb(model_, BounceIrradiance(model_, a, l));
+    for (size_t s = 0; s < stale.size(); ++s)
+      for (int ch = 0; ch < 3; ++ch) cache_[stale[s]].bounce[ch] = b[ch].col(static_cast<long>(s));
+  }
+  if (!no_dbounce.empty()) {
+    const auto [a, l] = pick(no_dbounce, kStep);
+    const std::array<Eigen::MatrixXf, 3> b = BounceLobeShadingRgb(model_, BounceIrradiance(model_, a, l));
+    for (size_t s = 0; s < no_dbounce.size(); ++s) {
+      LobeCache& c = cache_[no_dbounce[s]];
+      for (int ch = 0; ch < 3; ++ch)
+        c.dbounce[ch] = (b[ch].col(static_cast<long>(s)) - c.bounce[ch]) / static_cast<float>(kStep);
+    }
+  }
 }
 
 bool RefineCost::Evaluate(double const* const* params, double* residuals, double** jacobians) const {
   std::vector<Eigen::Vector3d> axes(lobes_);
   std::vector<double> lambda(lobes_);
   std::vector<Eigen::Vector3d> amp(lobes_);
-  std::vector<ProductLobe> products(lobes_);
   for (int i = 0; i < lobes_; ++i) {
     axes[i] = Eigen::Vector3d(params[3 * i][0], params[3 * i][1], params[3 * i][2]).normalized();
     lambda[i] = std::exp(params[3 * i + 1][0]);
     amp[i] = Eigen::Vector3d(params[3 * i + 2][0], params[3 * i + 2][1], params[3 * i + 2][2]);
-    products[i] = EvalProductLobe(axes[i], lambda[i], model_.normal, model_.cosine);
   }
-  Eigen::MatrixXf theta;
-  std::vector<Eigen::Vector3f> witness;
-  std::vector<float> caps;
-  for (const ProductLobe& p : products) caps.push_back(VisibilityCap(p));
-  if (!model_.exact) PlaneAngles(model_, axes, caps, &theta, &witness);
-  std::vector<ExactVisibility::Lobe> exact_lobes;
-  if (model_.exact)
-    for (int i = 0; i < lobes_; ++i) exact_lobes.push_back(model_.exact->Prepare(axes[i], lambda[i]));
+  const bool need_dbounce = jacobians && bounce_sharpness_ && model_.bounce;
+  Update(axes, lambda, need_dbounce);
   const long np = static_cast<long>(model_.points.size());
-  // The casters' bounce of each lobe per channel, and its log-sharpness
-  // derivative by a forward difference (see the header).
-  std::array<Eigen::MatrixXf, 3> bounce, dbounce;
-  if (model_.bounce) {
-    bounce = BounceLobeShadingRgb(model_, BounceIrradiance(model_, axes, lambda));
-    if (jacobians && bounce_sharpness_) {
-      constexpr double kStep = 0.02;
-      std::vector<double> lambda2(lambda);
-      for (double& l : lambda2) l *= std::exp(kStep);
-      dbounce = BounceLobeShadingRgb(model_, BounceIrradiance(model_, axes, lambda2));
-      for (int c = 0; c < 3; ++c) dbounce[c] = (dbounce[c] - bounce[c]) / static_cast<float>(kStep);
-    }
-  }
 #pragma omp parallel for schedule(static)
   for (long k = 0; k < np; ++k) {
     const Eigen::Vector3d rho = model_.albedo[k].cast<double>() / M_PI * sqrt_w_[k];
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     for (int j = 0; j < lobes_; ++j) {
+      const LobeCache& lc = cache_[j];
       auto sphere_shade = [&] {
-        const Eigen::Vector3d u = witness[k * lobes_ + j].cast<double>();
+        const Eigen::Vector3d u = lc.witness[k].cast<double>();
         Eigen::Vector3d dtheta = Eigen::Vector3d::Zero();
         if (jacobians && !u.isZero()) {
           const double c = std::clamp(u.dot(axes[j]), -1.0, 1.0);
           dtheta = -u / std::max(std::sqrt(1 - c * c), 1e-9);
         }
-        return ShadeLobe(products[j], theta(k, j), dtheta,
+        return ShadeLobe(lc.product, lc.theta[k], dtheta,
                          model_.cap_occlusion ? model_.occluder_cos[k] : kNoOcclusionCap);
       };
       const LobeShading s =
-          model_.exact ? model_.exact->Shade(model_.exact_table->View(k), exact_lobes[j], jacobians != nullptr)
+          model_.exact ? model_.exact->Shade(model_.exact_table->View(k), lc.exact, jacobians != nullptr)
                        : sphere_shade();
-      const Eigen::Vector3d b = model_.bounce ? Eigen::Vector3d(bounce[0](k, j), bounce[1](k, j), bounce[2](k, j))
+      const Eigen::Vector3d b = model_.bounce ? Eigen::Vector3d(lc.bounce[0][k], lc.bounce[1][k], lc.bounce[2][k])
                                               : Eigen::Vector3d::Zero();
       sum += (s.value + b.array()).matrix().cwiseProduct(amp[j]);
       if (!jacobians) continue;
@@ -86,7 +124,7 @@ bool RefineCost::Evaluate(double const* const* params, double* residuals, double
           for (int d = 0; d < 3; ++d) J[row * 3 + d] = g[d];
         }
         if (double* J = jacobians[3 * j + 1])
-          J[row] = rho[c] * amp[j][c] * (s.dvalue_dlambda * lambda[j] + (dbounce[c].size() ? dbounce[c](k, j) : 0.0));
+          J[row] = rho[c] * amp[j][c] * (s.dvalue_dlambda * lambda[j] + (need_dbounce ? lc.dbounce[c][k] : 0.0f));
         if (double* J = jacobians[3 * j + 2])
           for (int d = 0; d < 3; ++d) J[row * 3 + d] = d == c ? rho[c] * (s.value + b[c]) : 0.0;
       }

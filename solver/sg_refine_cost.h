@@ -21,14 +21,23 @@
 // 5.8 s on pub_torus_sunrise, 5.1 -> 6.7 on interior). The
 // bounce's axis part is left out: a forward difference of it lowered the
 // median by 0.2-0.9 dB (fast, 3 seeds, pub_torus_sunrise and interior).
+//
+// What a lobe costs to shade (its visibility angles or exact lobe, its
+// cosine integral, its bounce) is kept per lobe while its axis and sharpness
+// stay the same: the Jacobian after an accepted step reuses the step's
+// evaluation, and lobes held constant (SetParameterBlockConstant) are shaded
+// once per solve.
 #pragma once
 
 #include <ceres/ceres.h>
 
 #include <Eigen/Dense>
+#include <array>
 #include <vector>
 
+#include "solver/exact_visibility.h"
 #include "solver/shadow_plane.h"
+#include "solver/sg_shading.h"
 
 namespace shadowsg {
 
@@ -41,11 +50,26 @@ class RefineCost final : public ceres::CostFunction {
   bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override;
 
  private:
+  struct LobeCache {
+    Eigen::Vector3d axis = Eigen::Vector3d::Zero();
+    double lambda = -1;  // never a valid sharpness: nothing cached yet
+    ProductLobe product;
+    ExactVisibility::Lobe exact;
+    Eigen::VectorXf theta;                  // sphere-tree visibility, per point
+    std::vector<Eigen::Vector3f> witness;   // and its witness direction
+    std::array<Eigen::VectorXf, 3> bounce;  // per channel, per point
+    std::array<Eigen::VectorXf, 3> dbounce; // d bounce / d log sharpness (empty until asked for)
+  };
+  // Brings cache_ up to date for these parameters (Evaluate runs on one
+  // thread: RefineLobes sets num_threads = 1 and parallelises inside).
+  void Update(const std::vector<Eigen::Vector3d>& axes, const std::vector<double>& lambda, bool need_dbounce) const;
+
   const ShadowPlaneModel& model_;
   const std::vector<Eigen::Vector3f>& targets_;
   std::vector<double> sqrt_w_;
   int lobes_;
   bool bounce_sharpness_;
+  mutable std::vector<LobeCache> cache_;
 };
 
 }  // namespace shadowsg

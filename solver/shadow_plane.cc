@@ -112,11 +112,13 @@ Eigen::MatrixXf DirectLobeShading(const ShadowPlaneModel& model, const std::vect
         out(k, i) = static_cast<float>(model.exact->Shade(model.exact_table->View(k), lobes[i], false).value);
     return out;
   }
-  std::vector<ProductLobe> products;
-  std::vector<float> caps;
+  // The exact cosine integral takes ~90 us a lobe: a dictionary's worth runs in parallel.
+  std::vector<ProductLobe> products(nl);
+  std::vector<float> caps(nl);
+#pragma omp parallel for schedule(static) if (nl > 16)
   for (long i = 0; i < nl; ++i) {
-    products.push_back(EvalProductLobe(axes[i], sharpness[i], model.normal, model.cosine));
-    caps.push_back(VisibilityCap(products.back()));
+    products[i] = EvalProductLobe(axes[i], sharpness[i], model.normal, model.cosine);
+    caps[i] = VisibilityCap(products[i]);
   }
   Eigen::MatrixXf theta;
   PlaneAngles(model, axes, caps, &theta, nullptr);

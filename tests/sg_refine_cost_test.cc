@@ -1,5 +1,6 @@
 // The refinement's cost (solver/sg_refine_cost.h): its Jacobian against
-// central differences of its residuals, with the casters' bounce in the model.
+// central differences of its residuals, with the casters' bounce in the
+// model, and its per-lobe cache against fresh evaluations.
 #include "solver/sg_refine_cost.h"
 
 #include <gtest/gtest.h>
@@ -133,6 +134,37 @@ TEST(RefineCost, AmplitudeColumnsMatchDifferences) {
       EXPECT_GT(scale, 0) << "lobe " << lobe << " channel " << c;
       EXPECT_LT(worst, 1e-9 + 1e-5 * scale) << "lobe " << lobe << " channel " << c;
     }
+}
+
+// One cost evaluated along a path of parameters (one lobe moved, both,
+// back, the sharpness derivative asked for after a residual-only call)
+// gives what a fresh cost gives at each point: nothing stale is reused.
+TEST(RefineCost, CachedShadingMatchesAFreshCost) {
+  for (bool exact_sharpness : {false, true}) {
+    const ShadowPlaneModel bounced = ModelWithBounce(true);
+    const std::vector<Eigen::Vector3f> targets(bounced.points.size(), Eigen::Vector3f::Constant(0.5f));
+    const std::vector<double> weight(bounced.points.size(), 1.0);
+    const RefineCost reused(bounced, weight, targets, 2, exact_sharpness);
+    const auto start = Lobes();
+    auto sun_moved = start;
+    sun_moved[0] = {0.5, -0.35, 0.79};
+    auto both_moved = sun_moved;
+    both_moved[4][0] += 0.3;
+    // One lobe's shading alone may sum in another order than beside another
+    // lobe's (float products): equal to rounding, not bitwise.
+    auto expect_near = [](const std::vector<double>& a, const std::vector<double>& b, const char* what) {
+      EXPECT_LT(Distance(a, b), 1e-5 * Norm(b)) << what;
+    };
+    for (const auto& blocks : {start, sun_moved, both_moved, start, sun_moved}) {
+      const RefineCost fresh(bounced, weight, targets, 2, exact_sharpness);
+      const std::vector<double> r_fresh = Residuals(fresh, blocks);
+      expect_near(Residuals(reused, blocks), r_fresh, "residuals");
+      std::vector<std::vector<double>> j_reused, j_fresh;
+      expect_near(Residuals(reused, blocks, &j_reused), r_fresh, "residuals with Jacobians");
+      Residuals(fresh, blocks, &j_fresh);
+      for (size_t b = 0; b < j_fresh.size(); ++b) expect_near(j_reused[b], j_fresh[b], "Jacobian block");
+    }
+  }
 }
 
 }  // namespace
