@@ -71,6 +71,8 @@ double Value(double lambda, double c) {
 
 }  // namespace
 
+double SgCosineIntegralValue(double lambda, double c) { return Value(lambda, c); }
+
 CosineIntegral SgCosineIntegral(double lambda, double c) {
   CosineIntegral r;
   r.value = Value(lambda, c);

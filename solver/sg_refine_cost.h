@@ -54,6 +54,7 @@ class RefineCost final : public ceres::CostFunction {
     Eigen::Vector3d axis = Eigen::Vector3d::Zero();
     double lambda = -1;  // never a valid sharpness: nothing cached yet
     ProductLobe product;
+    bool product_derivatives = false;  // residual-only evaluations skip the exact integral's
     ExactVisibility::Lobe exact;
     Eigen::VectorXf theta;                  // sphere-tree visibility, per point
     std::vector<Eigen::Vector3f> witness;   // and its witness direction
@@ -62,7 +63,8 @@ class RefineCost final : public ceres::CostFunction {
   };
   // Brings cache_ up to date for these parameters (Evaluate runs on one
   // thread: RefineLobes sets num_threads = 1 and parallelises inside).
-  void Update(const std::vector<Eigen::Vector3d>& axes, const std::vector<double>& lambda, bool need_dbounce) const;
+  void Update(const std::vector<Eigen::Vector3d>& axes, const std::vector<double>& lambda, bool derivatives,
+              bool need_dbounce) const;
 
   const ShadowPlaneModel& model_;
   const std::vector<Eigen::Vector3f>& targets_;

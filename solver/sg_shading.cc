@@ -1,12 +1,14 @@
 #include "solver/sg_shading.h"
 
 #include <cmath>
+#include <limits>
 
 #include "solver/cosine_integral.h"
 
 namespace shadowsg {
 
-ProductLobe EvalProductLobe(const Eigen::Vector3d& mu, double lambda, const Eigen::Vector3d& n, CosineModel cosine) {
+ProductLobe EvalProductLobe(const Eigen::Vector3d& mu, double lambda, const Eigen::Vector3d& n, CosineModel cosine,
+                            bool derivatives) {
   ProductLobe p;
   const Eigen::Vector3d v = lambda * mu + kCosineLobeSharpness * n;
   const double lp = v.norm();
@@ -22,7 +24,12 @@ ProductLobe EvalProductLobe(const Eigen::Vector3d& mu, double lambda, const Eige
   const double ds_dlp = kCosineLobeAmplitude * e * (f + df);
   p.dscale_dlambda = ds_dlp * p.dlambda_prime_dlambda - p.scale;
   p.dscale_dmu = ds_dlp * p.dlambda_prime_dmu;
-  if (cosine == CosineModel::kExact) {
+  if (cosine == CosineModel::kExact && !derivatives) {
+    constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+    p.scale = SgCosineIntegralValue(lambda, mu.dot(n));
+    p.dscale_dlambda = kNaN;
+    p.dscale_dmu = Eigen::Vector3d::Constant(kNaN);
+  } else if (cosine == CosineModel::kExact) {
     const CosineIntegral ci = SgCosineIntegral(lambda, mu.dot(n));
     p.scale = ci.value;
     p.dscale_dlambda = ci.dlambda;

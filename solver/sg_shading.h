@@ -48,8 +48,10 @@ struct ProductLobe {
 };
 // With CosineModel::kExact, `scale` and its derivatives are the exact
 // integral; lambda' (which sets the shadow's softness) stays as above.
+// Without `derivatives` the exact integral's derivatives are NaN (they cost
+// four more quadratures); the SG product's are always there.
 ProductLobe EvalProductLobe(const Eigen::Vector3d& mu, double lambda, const Eigen::Vector3d& normal,
-                            CosineModel cosine = CosineModel::kSgProduct);
+                            CosineModel cosine = CosineModel::kSgProduct, bool derivatives = true);
 
 // Shading of one lobe at one point given theta (signed angle from mu to the
 // nearest occluder boundary) and its gradient with respect to mu.

@@ -162,7 +162,7 @@ void AtomColumn(const ShadowPlaneModel& model, const Eigen::MatrixXf& theta, con
       out[r] = static_cast<float>(model.exact->Shade(model.exact_table->View(r), lobe, false).value);
     return;
   }
-  const ProductLobe p = EvalProductLobe(axis, atom.lambda, model.normal, model.cosine);
+  const ProductLobe p = EvalProductLobe(axis, atom.lambda, model.normal, model.cosine, /*derivatives=*/false);
   for (long r = 0; r < theta.rows(); ++r)
     out[r] = static_cast<float>(
         ShadeLobe(p, theta(r, atom.axis), Eigen::Vector3d::Zero(),
@@ -336,7 +336,7 @@ int RefineLobes(const ShadowPlaneModel& model, const std::vector<double>& weight
   std::vector<double> lit(lighting->lobes.size());
   for (size_t i = 0; i < lit.size(); ++i) {
     const SgLobe& l = lighting->lobes[i];
-    lit[i] = EvalProductLobe(l.axis, l.sharpness, model.normal, model.cosine).scale * l.amplitude.sum();
+    lit[i] = EvalProductLobe(l.axis, l.sharpness, model.normal, model.cosine, false).scale * l.amplitude.sum();
     total += lit[i];
   }
   std::vector<SgLobe> kept;

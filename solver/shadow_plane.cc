@@ -117,7 +117,7 @@ Eigen::MatrixXf DirectLobeShading(const ShadowPlaneModel& model, const std::vect
   std::vector<float> caps(nl);
 #pragma omp parallel for schedule(static) if (nl > 16)
   for (long i = 0; i < nl; ++i) {
-    products[i] = EvalProductLobe(axes[i], sharpness[i], model.normal, model.cosine);
+    products[i] = EvalProductLobe(axes[i], sharpness[i], model.normal, model.cosine, /*derivatives=*/false);
     caps[i] = VisibilityCap(products[i]);
   }
   Eigen::MatrixXf theta;
@@ -230,7 +230,9 @@ std::vector<Eigen::Vector3f> RenderDirect(const ShadowPlaneModel& model, const S
   std::vector<Eigen::Vector3d> axes;
   const std::vector<size_t> active = ActiveLobes(model, lighting, &axes);
   std::vector<ProductLobe> products;
-  for (size_t i : active) products.push_back(EvalProductLobe(lighting.lobes[i].axis, lighting.lobes[i].sharpness, model.normal, model.cosine));
+  for (size_t i : active)
+    products.push_back(EvalProductLobe(lighting.lobes[i].axis, lighting.lobes[i].sharpness, model.normal, model.cosine,
+                                       /*derivatives=*/false));
   std::vector<float> caps;
   for (const ProductLobe& p : products) caps.push_back(VisibilityCap(p));
   std::vector<Eigen::Vector3f> out(model.points.size(), Eigen::Vector3f::Zero());
