@@ -25,8 +25,7 @@
 // What a lobe costs to shade (its visibility angles or exact lobe, its
 // cosine integral, its bounce) is kept per lobe while its axis and sharpness
 // stay the same: the Jacobian after an accepted step reuses the step's
-// evaluation, and lobes held constant (SetParameterBlockConstant) are shaded
-// once per solve.
+// evaluation (a lobe whose block a caller holds constant would be shaded once).
 #pragma once
 
 #include <ceres/ceres.h>

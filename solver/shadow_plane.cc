@@ -112,7 +112,7 @@ Eigen::MatrixXf DirectLobeShading(const ShadowPlaneModel& model, const std::vect
         out(k, i) = static_cast<float>(model.exact->Shade(model.exact_table->View(k), lobes[i], false).value);
     return out;
   }
-  // The exact cosine integral takes ~90 us a lobe: a dictionary's worth runs in parallel.
+  // The exact cosine integral takes ~20 us a lobe: a dictionary's worth runs in parallel.
   std::vector<ProductLobe> products(nl);
   std::vector<float> caps(nl);
 #pragma omp parallel for schedule(static) if (nl > 16)

@@ -87,6 +87,23 @@ TEST(SgShading, ProductLobeDerivatives) {
     }
 }
 
+// Without derivatives the exact integral is the same value; its derivatives
+// are NaN so that a caller who needed them cannot miss it.
+TEST(SgShading, ProductLobeWithoutDerivatives) {
+  const Eigen::Vector3d n = Eigen::Vector3d(0.1, -0.2, 1).normalized();
+  const Eigen::Vector3d mu = Eigen::Vector3d(0.4, 0.3, 0.8).normalized();
+  for (double lambda : {0.5, 12.0, 900.0}) {
+    const ProductLobe full = EvalProductLobe(mu, lambda, n, CosineModel::kExact);
+    const ProductLobe bare = EvalProductLobe(mu, lambda, n, CosineModel::kExact, /*derivatives=*/false);
+    EXPECT_EQ(bare.scale, full.scale);
+    EXPECT_EQ(bare.lambda_prime, full.lambda_prime);
+    EXPECT_TRUE(std::isnan(bare.dscale_dlambda));
+    EXPECT_TRUE(bare.dscale_dmu.array().isNaN().all());
+    const ProductLobe product = EvalProductLobe(mu, lambda, n, CosineModel::kSgProduct, false);
+    EXPECT_EQ(product.dscale_dlambda, EvalProductLobe(mu, lambda, n).dscale_dlambda);
+  }
+}
+
 // Witness direction of the minimum, by brute force in double precision.
 Eigen::Vector3d BruteWitness(const std::vector<SphereTree>& trees, const Eigen::Vector3d& x, const Eigen::Vector3d& mu) {
   const double theta = SignedAngleBruteForce(trees, x, mu);
