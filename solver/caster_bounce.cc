@@ -104,7 +104,7 @@ std::vector<Eigen::Vector3d> FibonacciSphere(int count) {
 }
 
 // e^{-x} I0(x) by Abramowitz & Stegun 9.8.1-9.8.2 (relative error < 2e-7):
-// std::cyl_bessel_i made UpperShare 130 us a lobe, most of the bounce
+// std::cyl_bessel_i made UpperShare 130 us a lobe, a third of the bounce
 // dictionary's time.
 double ScaledBesselI0(double x) {
   x = std::abs(x);
