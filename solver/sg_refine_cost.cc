@@ -24,7 +24,7 @@ RefineCost::RefineCost(const ShadowPlaneModel& model, const std::vector<double>&
 
 void RefineCost::Update(const std::vector<Eigen::Vector3d>& axes, const std::vector<double>& lambda,
                         bool derivatives, bool need_dbounce) const {
-  std::vector<int> stale, no_dbounce, products;
+  std::vector<int> stale, no_dbounce, need_product;
   for (int i = 0; i < lobes_; ++i) {
     LobeCache& c = cache_[i];
     if (c.axis != axes[i] || c.lambda != lambda[i]) {
@@ -33,16 +33,16 @@ void RefineCost::Update(const std::vector<Eigen::Vector3d>& axes, const std::vec
       c.lambda = lambda[i];
       if (model_.exact) c.exact = model_.exact->Prepare(axes[i], lambda[i]);
       c.dbounce = {};
-      products.push_back(i);
+      need_product.push_back(i);
     } else if (derivatives && !c.product_derivatives) {
-      products.push_back(i);
+      need_product.push_back(i);
     }
     if (need_dbounce && c.dbounce[0].size() == 0) no_dbounce.push_back(i);
   }
   // The exact cosine integral costs ~20 us a lobe (~90 with derivatives).
-#pragma omp parallel for schedule(static) if (products.size() > 1)
-  for (size_t q = 0; q < products.size(); ++q) {
-    const int i = products[q];
+#pragma omp parallel for schedule(static) if (need_product.size() > 1)
+  for (size_t q = 0; q < need_product.size(); ++q) {
+    const int i = need_product[q];
     cache_[i].product = EvalProductLobe(axes[i], lambda[i], model_.normal, model_.cosine, derivatives);
     cache_[i].product_derivatives = derivatives;
   }
