@@ -546,15 +546,16 @@ FitRun StartFit(const FitData& d, bool bounce, const ShadowPlaneModel& hold_mode
         atoms_fit.push_back({axes[atoms[support[a]].axis], atoms[support[a]].lambda, amps.row(a).transpose()});
   }
   if (atoms_fit.empty()) throw std::runtime_error("sg: no lobe lowers the error (is the plane lit at all?)");
-  // Neighbouring atoms are one light: merge them, strongest first.
+  // Neighbouring atoms are one light: merge them; the size path takes them
+  // in order of their share of the fitted image.
   run.merged = MergeLobes(atoms_fit, o.merge_overlap);
-  std::sort(run.merged.begin(), run.merged.end(), [](const SgLobe& a, const SgLobe& b) { return Power(a) > Power(b); });
+  SortByFitShare(fit_model, d.weight, &run.merged);
   run.lighting.up = fit_model.normal;
   sum.select_seconds = Since(t0) + d.dictionary_seconds;
   return run;
 }
 
-// Size path: the strongest k merged lobes, k = 1, 2, ..., each refined
+// Size path: the first k merged lobes (SortByFitShare), k = 1, 2, ..., each refined
 // jointly from the previous model plus the next lobe; the held-out error of
 // each decides how many the scene needs. One step; false once the path ended.
 bool StepFit(FitRun* run, const SgSolverOptions& o) {
@@ -624,6 +625,35 @@ FitResult FinishFit(FitRun&& run, double signal, const SgSolverOptions& o) {
 }
 
 }  // namespace
+
+void SortByFitShare(const ShadowPlaneModel& model, const std::vector<double>& weight, std::vector<SgLobe>* lobes) {
+  SHADOWSG_CHECK(weight.size() == model.points.size());
+  if (lobes->size() < 2) return;
+  std::vector<Eigen::Vector3d> axes;
+  std::vector<double> sharpness;
+  for (const SgLobe& l : *lobes) axes.push_back(l.axis), sharpness.push_back(l.sharpness);
+  // One batch of shading columns (as the dictionary's), not a render a lobe.
+  const Eigen::MatrixXf direct = DirectLobeShading(model, axes, sharpness);
+  std::array<Eigen::MatrixXf, 3> bounce;
+  if (model.bounce) bounce = BounceLobeShadingRgb(model, BounceIrradiance(model, axes, sharpness));
+  std::vector<std::pair<double, size_t>> key;
+  for (size_t i = 0; i < lobes->size(); ++i) {
+    const long j = static_cast<long>(i);
+    double share = 0;
+    for (size_t k = 0; k < model.points.size(); ++k) {
+      const long r = static_cast<long>(k);
+      for (int c = 0; c < 3; ++c)
+        share += weight[k] * model.albedo[k][c] * (*lobes)[i].amplitude[c] *
+                 (direct(r, j) + (model.bounce ? bounce[c](r, j) : 0.0f));
+    }
+    key.push_back({-share, i});
+  }
+  std::sort(key.begin(), key.end());  // ties keep the input order
+  std::vector<SgLobe> sorted;
+  sorted.reserve(key.size());
+  for (const auto& kv : key) sorted.push_back((*lobes)[kv.second]);
+  *lobes = std::move(sorted);
+}
 
 bool BounceRaceDrops(size_t steps, size_t other_steps, double best, double other_best) {
   // After 2 steps at 1.5x the race dropped the later winner on

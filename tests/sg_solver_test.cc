@@ -117,6 +117,44 @@ TEST(SgSolver, RestartsKeepTheBestHeldOutFitWithinBounds) {
   EXPECT_DOUBLE_EQ(s1.restart_heldout_mse[0], s.restart_heldout_mse[0]);
 }
 
+// The size path takes lobes by their share of the fitted image, not by power:
+// a sharp lobe at the horizon holds more power than a high sun but lights the
+// plane at a grazing angle only.
+TEST(SgSolver, PathOrdersLobesByTheirShareOfTheImage) {
+  ShadowPlaneModel model = TestPlaneModel(32, CosineModel::kExact);
+  model.upper_hemisphere_only = false;
+  const double el = 1.0 * M_PI / 180;
+  const SgLobe horizon{Eigen::Vector3d(std::cos(el), 0, std::sin(el)), 250.0, Eigen::Vector3d(300, 300, 300)};
+  const SgLobe sun{Eigen::Vector3d(0.4, 0.3, 0.87).normalized(), 40.0, Eigen::Vector3d(30, 28, 25)};
+  const SgLobe sky{Eigen::Vector3d(0, 0, 1), 2.0, Eigen::Vector3d(0.5, 0.6, 0.8)};
+  ASSERT_GT(SgIntegral(horizon).sum(), SgIntegral(sun).sum());
+  ASSERT_GT(SgIntegral(horizon).sum(), SgIntegral(sky).sum());
+  const std::vector<double> weight(model.points.size(), 1.0);
+  for (const std::vector<SgLobe>& given : {std::vector<SgLobe>{horizon, sky, sun}, std::vector<SgLobe>{sky, sun, horizon}}) {
+    std::vector<SgLobe> lobes = given;
+    SortByFitShare(model, weight, &lobes);
+    ASSERT_EQ(lobes.size(), 3u);
+    EXPECT_EQ(lobes[0].axis, sun.axis);
+    EXPECT_EQ(lobes[2].axis, horizon.axis);
+  }
+  // The weights count: with every weight on the points the sun leaves in
+  // shadow, the sky (unshadowed there, mostly) comes first.
+  SgLighting sun_only;
+  sun_only.lobes = {sun};
+  const std::vector<Eigen::Vector3f> lit = RenderShadowPlane(model, sun_only);
+  const float peak = std::max_element(lit.begin(), lit.end(), [](const auto& a, const auto& b) {
+                       return a.sum() < b.sum();
+                     })->sum();
+  std::vector<double> shadow_weight(model.points.size(), 0.0);
+  size_t in_shadow = 0;
+  for (size_t k = 0; k < lit.size(); ++k)
+    if (lit[k].sum() < 0.2f * peak) shadow_weight[k] = 1, ++in_shadow;
+  ASSERT_GT(in_shadow, 0u);
+  std::vector<SgLobe> lobes = {horizon, sun, sky};
+  SortByFitShare(model, shadow_weight, &lobes);
+  EXPECT_EQ(lobes[0].axis, sky.axis);
+}
+
 // A clear loser stops after two steps, a close one only after four at 2x;
 // neither before the other model has taken as many steps.
 TEST(SgSolver, BounceRaceDropsOnlyAClearLoser) {
