@@ -99,9 +99,9 @@ bool BounceRaceDrops(size_t steps, size_t other_steps, double best, double other
 // order. Ordering them by power (their integral over the sphere) put sharp
 // lobes at the horizon first, which light the plane at grazing angles only,
 // and the path's first steps then refined lobes that were not the lighting:
-// fast, 10 seeds, one thread, pub_torus_sunsky 43.01 (39.50-43.17) -> 43.14
-// (43.07-43.17) dB median (range), pub_torus_sunrise 37.36 -> 37.87,
-// pub_torus_interior 33.92 -> 34.24.
+// fast, 10 seeds, 2 threads, pub_torus_sunsky 43.08 (41.16-43.17) -> 43.14
+// (43.05-43.17) dB median (range), pub_torus_sunrise 37.36 (36.63-39.72) ->
+// 37.80 (36.91-38.34), pub_torus_interior 34.23 -> 34.25 (README).
 void SortByFitShare(const ShadowPlaneModel& model, const std::vector<double>& weight, std::vector<SgLobe>* lobes);
 
 // `model` must use CosineModel::kExact for the fit to match its renders.
