@@ -636,18 +636,18 @@ void SortByFitShare(const ShadowPlaneModel& model, const std::vector<double>& we
   const Eigen::MatrixXf direct = DirectLobeShading(model, axes, sharpness);
   std::array<Eigen::MatrixXf, 3> bounce;
   if (model.bounce) bounce = BounceLobeShadingRgb(model, BounceIrradiance(model, axes, sharpness));
-  std::vector<std::pair<double, size_t>> key;
-  for (size_t i = 0; i < lobes->size(); ++i) {
-    const long j = static_cast<long>(i);
-    double share = 0;
-    for (size_t k = 0; k < model.points.size(); ++k) {
-      const long r = static_cast<long>(k);
-      for (int c = 0; c < 3; ++c)
-        share += weight[k] * model.albedo[k][c] * (*lobes)[i].amplitude[c] *
-                 (direct(r, j) + (model.bounce ? bounce[c](r, j) : 0.0f));
-    }
-    key.push_back({-share, i});
+  // share_i = sum over channels c of amplitude_ic * sum_k w_k albedo_kc column_ic(k).
+  const long np = static_cast<long>(model.points.size()), nl = static_cast<long>(lobes->size());
+  Eigen::VectorXd share = Eigen::VectorXd::Zero(nl);
+  for (int c = 0; c < 3; ++c) {
+    Eigen::VectorXd w(np);
+    for (long k = 0; k < np; ++k) w[k] = weight[k] * model.albedo[k][c];
+    const Eigen::VectorXd per_unit =
+        (model.bounce ? Eigen::MatrixXf(direct + bounce[c]) : direct).cast<double>().transpose() * w;
+    for (long i = 0; i < nl; ++i) share[i] += (*lobes)[i].amplitude[c] * per_unit[i];
   }
+  std::vector<std::pair<double, size_t>> key;
+  for (long i = 0; i < nl; ++i) key.push_back({-share[i], static_cast<size_t>(i)});
   std::sort(key.begin(), key.end());  // ties keep the input order
   std::vector<SgLobe> sorted;
   sorted.reserve(key.size());
