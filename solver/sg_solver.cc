@@ -547,15 +547,14 @@ FitRun StartFit(const FitData& d, bool bounce, const ShadowPlaneModel& hold_mode
   }
   if (atoms_fit.empty()) throw std::runtime_error("sg: no lobe lowers the error (is the plane lit at all?)");
   // Neighbouring atoms are one light: merge them; the size path takes them
-  // in order of their share of the fitted image.
-  run.merged = MergeLobes(atoms_fit, o.merge_overlap);
-  SortByFitShare(fit_model, d.weight, &run.merged);
+  // in the reverse order of backward elimination.
+  run.merged = OrderByElimination(fit_model, d.weight, d.targets, MergeLobes(atoms_fit, o.merge_overlap));
   run.lighting.up = fit_model.normal;
   sum.select_seconds = Since(t0) + d.dictionary_seconds;
   return run;
 }
 
-// Size path: the first k merged lobes (SortByFitShare), k = 1, 2, ..., each refined
+// Size path: the first k merged lobes (OrderByElimination), k = 1, 2, ..., each refined
 // jointly from the previous model plus the next lobe; the held-out error of
 // each decides how many the scene needs. One step; false once the path ended.
 bool StepFit(FitRun* run, const SgSolverOptions& o) {
@@ -626,33 +625,82 @@ FitResult FinishFit(FitRun&& run, double signal, const SgSolverOptions& o) {
 
 }  // namespace
 
-void SortByFitShare(const ShadowPlaneModel& model, const std::vector<double>& weight, std::vector<SgLobe>* lobes) {
-  SHADOWSG_CHECK(weight.size() == model.points.size());
-  if (lobes->size() < 2) return;
+std::vector<SgLobe> OrderByElimination(const ShadowPlaneModel& model, const std::vector<double>& weight,
+                                       const std::vector<Eigen::Vector3f>& targets, const std::vector<SgLobe>& lobes) {
+  SHADOWSG_CHECK(weight.size() == model.points.size() && targets.size() == model.points.size());
+  const long np = static_cast<long>(model.points.size()), n = static_cast<long>(lobes.size());
+  if (n < 2) return lobes;
   std::vector<Eigen::Vector3d> axes;
   std::vector<double> sharpness;
-  for (const SgLobe& l : *lobes) axes.push_back(l.axis), sharpness.push_back(l.sharpness);
-  // One batch of shading columns (as the dictionary's), not a render a lobe.
+  for (const SgLobe& l : lobes) axes.push_back(l.axis), sharpness.push_back(l.sharpness);
+  // One batch of shading columns (as the dictionary's), then per channel the
+  // Gram matrix of the weighted columns: every subset's NNLS works on it.
   const Eigen::MatrixXf direct = DirectLobeShading(model, axes, sharpness);
   std::array<Eigen::MatrixXf, 3> bounce;
   if (model.bounce) bounce = BounceLobeShadingRgb(model, BounceIrradiance(model, axes, sharpness));
-  // share_i = sum over channels c of amplitude_ic * sum_k w_k albedo_kc column_ic(k).
-  const long np = static_cast<long>(model.points.size()), nl = static_cast<long>(lobes->size());
-  Eigen::VectorXd share = Eigen::VectorXd::Zero(nl);
+  std::array<Eigen::MatrixXd, 3> gram;
+  std::array<Eigen::VectorXd, 3> atb;
+  std::array<double, 3> btb{};
   for (int c = 0; c < 3; ++c) {
-    Eigen::VectorXd w(np);
-    for (long k = 0; k < np; ++k) w[k] = weight[k] * model.albedo[k][c];
-    const Eigen::VectorXd per_unit =
-        (model.bounce ? Eigen::MatrixXf(direct + bounce[c]) : direct).cast<double>().transpose() * w;
-    for (long i = 0; i < nl; ++i) share[i] += (*lobes)[i].amplitude[c] * per_unit[i];
+    Eigen::MatrixXd a(np, n);
+    Eigen::VectorXd b(np);
+    for (long k = 0; k < np; ++k) {
+      const double sw = std::sqrt(weight[k]);
+      a.row(k) = (sw * model.albedo[k][c] / M_PI) *
+                 (model.bounce ? Eigen::VectorXf(direct.row(k) + bounce[c].row(k)) : Eigen::VectorXf(direct.row(k)))
+                     .cast<double>()
+                     .transpose();
+      b[k] = sw * targets[k][c];
+    }
+    gram[c] = a.transpose() * a;
+    atb[c] = a.transpose() * b;
+    btb[c] = b.squaredNorm();
   }
-  std::vector<std::pair<double, size_t>> key;
-  for (long i = 0; i < nl; ++i) key.push_back({-share[i], static_cast<size_t>(i)});
-  std::sort(key.begin(), key.end());  // ties keep the input order
-  std::vector<SgLobe> sorted;
-  sorted.reserve(key.size());
-  for (const auto& kv : key) sorted.push_back((*lobes)[kv.second]);
-  *lobes = std::move(sorted);
+  // Fit error of a subset, amplitudes by NNLS per channel; `active` (if not
+  // null) gets whether each member is lit (> 0) in some channel.
+  auto subset_error = [&](const std::vector<long>& set, std::vector<char>* active) {
+    const long m = static_cast<long>(set.size());
+    if (active) active->assign(m, 0);
+    double e = 0;
+    for (int c = 0; c < 3; ++c) {
+      Eigen::MatrixXd h(m, m);
+      Eigen::VectorXd f(m);
+      for (long i = 0; i < m; ++i) {
+        f[i] = atb[c][set[i]];
+        for (long j = 0; j < m; ++j) h(i, j) = gram[c](set[i], set[j]);
+      }
+      const Eigen::VectorXd x = SolveNnls(h, f);
+      e += btb[c] - 2 * x.dot(f) + x.dot(h * x);
+      if (active)
+        for (long i = 0; i < m; ++i) (*active)[i] |= x[i] > 0;
+    }
+    return e;
+  };
+  // Each round drops the member whose removal raises the error least. One at
+  // zero amplitude in every channel raises it by nothing: it goes at once
+  // (first in input order), without the other members' solves.
+  std::vector<long> set(n);
+  std::iota(set.begin(), set.end(), 0);
+  std::vector<long> dropped;
+  while (!set.empty()) {
+    std::vector<char> active;
+    subset_error(set, &active);
+    long drop = std::find(active.begin(), active.end(), 0) - active.begin();
+    if (drop == static_cast<long>(set.size())) {
+      double least = std::numeric_limits<double>::infinity();
+      for (size_t t = 0; t < set.size(); ++t) {
+        std::vector<long> rest = set;
+        rest.erase(rest.begin() + static_cast<long>(t));
+        const double e = subset_error(rest, nullptr);
+        if (e < least) least = e, drop = static_cast<long>(t);
+      }
+    }
+    dropped.push_back(set[drop]);
+    set.erase(set.begin() + drop);
+  }
+  std::vector<SgLobe> ordered;
+  for (auto it = dropped.rbegin(); it != dropped.rend(); ++it) ordered.push_back(lobes[*it]);
+  return ordered;
 }
 
 bool BounceRaceDrops(size_t steps, size_t other_steps, double best, double other_best) {

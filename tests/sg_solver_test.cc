@@ -117,42 +117,56 @@ TEST(SgSolver, RestartsKeepTheBestHeldOutFitWithinBounds) {
   EXPECT_DOUBLE_EQ(s1.restart_heldout_mse[0], s.restart_heldout_mse[0]);
 }
 
-// The size path takes lobes by their share of the fitted image, not by power:
-// a sharp lobe at the horizon holds more power than a high sun but lights the
-// plane at a grazing angle only.
-TEST(SgSolver, PathOrdersLobesByTheirShareOfTheImage) {
-  ShadowPlaneModel model = TestPlaneModel(32, CosineModel::kExact);
+// The size path takes lobes in the reverse order of backward elimination: a
+// low sun whose shadow the image needs comes before half of a sky that the
+// other half can stand in for, although each half lights the plane more
+// than the sun does; a bright horizon lobe the image does not hold comes last.
+TEST(SgSolver, PathOrdersLobesByBackwardElimination) {
+  ShadowPlaneModel model = TestPlaneModel(40, CosineModel::kExact);
   model.upper_hemisphere_only = false;
-  const double el = 1.0 * M_PI / 180;
-  const SgLobe horizon{Eigen::Vector3d(std::cos(el), 0, std::sin(el)), 250.0, Eigen::Vector3d(300, 300, 300)};
-  const SgLobe sun{Eigen::Vector3d(0.4, 0.3, 0.87).normalized(), 40.0, Eigen::Vector3d(30, 28, 25)};
-  const SgLobe sky{Eigen::Vector3d(0, 0, 1), 2.0, Eigen::Vector3d(0.5, 0.6, 0.8)};
+  auto dir = [](double azimuth_deg, double elevation_deg) {
+    const double a = azimuth_deg * M_PI / 180, e = elevation_deg * M_PI / 180;
+    return Eigen::Vector3d(std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e));
+  };
+  const SgLobe sun{dir(30, 20), 150.0, Eigen::Vector3d(20, 18, 15)};
+  const SgLobe sky{dir(0, 90), 2.0, Eigen::Vector3d(0.6, 0.7, 0.9)};
+  SgLighting truth;
+  truth.lobes = {sun, sky};
+  const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, truth);
+  // The candidates an imperfect dictionary fit might leave: the sky in two
+  // halves a few degrees apart, and a horizon lobe.
+  SgLobe sky_a = sky, sky_b = sky;
+  sky_a.axis = dir(0, 87), sky_b.axis = dir(180, 87);
+  sky_a.amplitude = sky_b.amplitude = 0.5 * sky.amplitude;
+  const SgLobe horizon{dir(200, 1), 250.0, Eigen::Vector3d(300, 300, 300)};
+  auto light_on_plane = [&](const SgLobe& l) {
+    SgLighting one;
+    one.lobes = {l};
+    double sum = 0;
+    for (const Eigen::Vector3f& v : RenderShadowPlane(model, one)) sum += v.sum();
+    return sum;
+  };
+  // Each half lights the plane more than the sun: by their share of the
+  // image the halves would come first.
+  ASSERT_GT(light_on_plane(sky_a), light_on_plane(sun));
+  ASSERT_GT(light_on_plane(sky_b), light_on_plane(sun));
   ASSERT_GT(SgIntegral(horizon).sum(), SgIntegral(sun).sum());
-  ASSERT_GT(SgIntegral(horizon).sum(), SgIntegral(sky).sum());
   const std::vector<double> weight(model.points.size(), 1.0);
-  for (const std::vector<SgLobe>& given : {std::vector<SgLobe>{horizon, sky, sun}, std::vector<SgLobe>{sky, sun, horizon}}) {
-    std::vector<SgLobe> lobes = given;
-    SortByFitShare(model, weight, &lobes);
-    ASSERT_EQ(lobes.size(), 3u);
-    EXPECT_EQ(lobes[0].axis, sun.axis);
-    EXPECT_EQ(lobes[2].axis, horizon.axis);
+  for (const std::vector<SgLobe>& given : {std::vector<SgLobe>{horizon, sky_a, sky_b, sun},
+                                           std::vector<SgLobe>{sky_b, sun, horizon, sky_a}}) {
+    const std::vector<SgLobe> order = OrderByElimination(model, weight, targets, given);
+    ASSERT_EQ(order.size(), 4u);
+    std::vector<Eigen::Vector3d> first = {order[0].axis, order[1].axis};
+    EXPECT_TRUE(first[0] == sun.axis || first[1] == sun.axis);
+    EXPECT_TRUE(first[0] == sky_a.axis || first[1] == sky_a.axis || first[0] == sky_b.axis ||
+                first[1] == sky_b.axis);
+    EXPECT_EQ(order[3].axis, horizon.axis);
+    // A permutation of the input, lobes unchanged.
+    for (const SgLobe& g : given)
+      EXPECT_EQ(std::count_if(order.begin(), order.end(),
+                              [&](const SgLobe& l) { return l.axis == g.axis && l.amplitude == g.amplitude; }),
+                1);
   }
-  // The weights count: with every weight on the points the sun leaves in
-  // shadow, the sky (unshadowed there, mostly) comes first.
-  SgLighting sun_only;
-  sun_only.lobes = {sun};
-  const std::vector<Eigen::Vector3f> lit = RenderShadowPlane(model, sun_only);
-  const float peak = std::max_element(lit.begin(), lit.end(), [](const auto& a, const auto& b) {
-                       return a.sum() < b.sum();
-                     })->sum();
-  std::vector<double> shadow_weight(model.points.size(), 0.0);
-  size_t in_shadow = 0;
-  for (size_t k = 0; k < lit.size(); ++k)
-    if (lit[k].sum() < 0.2f * peak) shadow_weight[k] = 1, ++in_shadow;
-  ASSERT_GT(in_shadow, 0u);
-  std::vector<SgLobe> lobes = {horizon, sun, sky};
-  SortByFitShare(model, shadow_weight, &lobes);
-  EXPECT_EQ(lobes[0].axis, sky.axis);
 }
 
 // A clear loser stops after two steps, a close one only after four at 2x;
