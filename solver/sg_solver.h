@@ -101,9 +101,9 @@ bool BounceRaceDrops(size_t steps, size_t other_steps, double best, double other
 // k that elimination keeps, and a lobe needed for a shadow comes early even
 // when it lights the plane little: the low sun of pub_torus_sunrise lights it
 // at 4 degrees and was twelfth by its share of the image. Fast, 10 seeds,
-// 1 thread, against the share order (README): sunrise 37.87 (36.91-38.50) ->
-// 39.12 (37.76-39.58) dB median (range), interior 34.24 (33.77-34.62) ->
-// 34.22 (34.09-34.62), sunsky and the cone scene level.
+// 2 threads, against the share order (README): sunrise 37.80 (36.91-38.34) ->
+// 39.12 (37.39-39.63) dB median (range), interior 34.25 (33.74-34.58) ->
+// 34.22 (33.88-34.33), sunsky and the cone scene level.
 std::vector<SgLobe> OrderByElimination(const ShadowPlaneModel& model, const std::vector<double>& weight,
                                        const std::vector<Eigen::Vector3f>& targets, const std::vector<SgLobe>& lobes);
 
