@@ -642,16 +642,14 @@ std::vector<SgLobe> OrderByElimination(const ShadowPlaneModel& model, const std:
   std::array<Eigen::VectorXd, 3> atb;
   std::array<double, 3> btb{};
   for (int c = 0; c < 3; ++c) {
-    Eigen::MatrixXd a(np, n);
-    Eigen::VectorXd b(np);
+    Eigen::VectorXd row_scale(np), b(np);
     for (long k = 0; k < np; ++k) {
       const double sw = std::sqrt(weight[k]);
-      a.row(k) = (sw * model.albedo[k][c] / M_PI) *
-                 (model.bounce ? Eigen::VectorXf(direct.row(k) + bounce[c].row(k)) : Eigen::VectorXf(direct.row(k)))
-                     .cast<double>()
-                     .transpose();
+      row_scale[k] = sw * model.albedo[k][c] / M_PI;
       b[k] = sw * targets[k][c];
     }
+    const Eigen::MatrixXd a =
+        row_scale.asDiagonal() * (model.bounce ? Eigen::MatrixXf(direct + bounce[c]) : direct).cast<double>();
     gram[c] = a.transpose() * a;
     atb[c] = a.transpose() * b;
     btb[c] = b.squaredNorm();
