@@ -346,31 +346,54 @@ int RefineLobes(const ShadowPlaneModel& model, const std::vector<double>& weight
   return static_cast<int>(s.iterations.size());
 }
 
+// The per-channel least-squares system of lobe amplitudes for fixed axes and
+// sharpness over the points of `model`: gram = A^T A, atb = A^T b, btb = b^T b,
+// A(k, i) = sqrt(w_k) rho_kc/pi (direct + bounce shading of lobe i at k),
+// b(k) = sqrt(w_k) target_kc. NNLS on it gives the amplitudes of any subset.
+struct LobeNormalEquations {
+  std::array<Eigen::MatrixXd, 3> gram;
+  std::array<Eigen::VectorXd, 3> atb;
+  std::array<double, 3> btb{};
+};
+
+LobeNormalEquations BuildLobeNormalEquations(const ShadowPlaneModel& model, const std::vector<double>& weight,
+                                             const std::vector<Eigen::Vector3f>& targets,
+                                             const std::vector<SgLobe>& lobes) {
+  const long np = static_cast<long>(model.points.size());
+  std::vector<Eigen::Vector3d> axes;
+  std::vector<double> sharpness;
+  for (const SgLobe& l : lobes) axes.push_back(l.axis), sharpness.push_back(l.sharpness);
+  // One batch of shading columns (as the dictionary's), not a render a lobe.
+  const Eigen::MatrixXf direct = DirectLobeShading(model, axes, sharpness);
+  std::array<Eigen::MatrixXf, 3> bounce;
+  if (model.bounce) bounce = BounceLobeShadingRgb(model, BounceIrradiance(model, axes, sharpness));
+  LobeNormalEquations eq;
+  for (int c = 0; c < 3; ++c) {
+    Eigen::VectorXd row_scale(np), b(np);
+    for (long k = 0; k < np; ++k) {
+      const double sw = std::sqrt(weight[k]);
+      row_scale[k] = sw * model.albedo[k][c] / M_PI;
+      b[k] = sw * targets[k][c];
+    }
+    const Eigen::MatrixXd a =
+        row_scale.asDiagonal() * (model.bounce ? Eigen::MatrixXf(direct + bounce[c]) : direct).cast<double>();
+    eq.gram[c] = a.transpose() * a;
+    eq.atb[c] = a.transpose() * b;
+    eq.btb[c] = b.squaredNorm();
+  }
+  return eq;
+}
+
 // Amplitudes of every lobe of *lighting re-solved by NNLS per channel for
 // its axes and sharpness: the start of LM is then no worse than the model
 // without the newest lobe.
 void ResolveAmplitudes(const ShadowPlaneModel& model, const std::vector<double>& weight,
                        const std::vector<Eigen::Vector3f>& targets, SgLighting* lighting) {
-  const long L = static_cast<long>(lighting->lobes.size()), np = static_cast<long>(model.points.size());
-  if (L == 0) return;
-  std::vector<Eigen::Vector3d> axes;
-  std::vector<double> sharpness;
-  for (const SgLobe& l : lighting->lobes) axes.push_back(l.axis), sharpness.push_back(l.sharpness);
-  const Eigen::MatrixXf direct = DirectLobeShading(model, axes, sharpness);
-  std::array<Eigen::MatrixXf, 3> bounce;
-  if (model.bounce) {
-    bounce = BounceLobeShadingRgb(model, BounceIrradiance(model, axes, sharpness));
-  }
+  if (lighting->lobes.empty()) return;
+  const LobeNormalEquations eq = BuildLobeNormalEquations(model, weight, targets, lighting->lobes);
   for (int c = 0; c < 3; ++c) {
-    Eigen::MatrixXd A(np, L);
-    Eigen::VectorXd b(np);
-    for (long k = 0; k < np; ++k) {
-      const double sw = std::sqrt(weight[k]) * model.albedo[k][c] / M_PI;
-      for (long i = 0; i < L; ++i) A(k, i) = sw * (direct(k, i) + (model.bounce ? bounce[c](k, i) : 0.0f));
-      b[k] = std::sqrt(weight[k]) * targets[k][c];
-    }
-    const Eigen::VectorXd a = SolveNnls(A.transpose() * A, A.transpose() * b);
-    for (long i = 0; i < L; ++i) lighting->lobes[i].amplitude[c] = a[i];
+    const Eigen::VectorXd a = SolveNnls(eq.gram[c], eq.atb[c]);
+    for (size_t i = 0; i < lighting->lobes.size(); ++i) lighting->lobes[i].amplitude[c] = a[static_cast<long>(i)];
   }
 }
 
@@ -628,32 +651,10 @@ FitResult FinishFit(FitRun&& run, double signal, const SgSolverOptions& o) {
 std::vector<SgLobe> OrderByElimination(const ShadowPlaneModel& model, const std::vector<double>& weight,
                                        const std::vector<Eigen::Vector3f>& targets, const std::vector<SgLobe>& lobes) {
   SHADOWSG_CHECK(weight.size() == model.points.size() && targets.size() == model.points.size());
-  const long np = static_cast<long>(model.points.size()), n = static_cast<long>(lobes.size());
+  const long n = static_cast<long>(lobes.size());
   if (n < 2) return lobes;
-  std::vector<Eigen::Vector3d> axes;
-  std::vector<double> sharpness;
-  for (const SgLobe& l : lobes) axes.push_back(l.axis), sharpness.push_back(l.sharpness);
-  // One batch of shading columns (as the dictionary's), then per channel the
-  // Gram matrix of the weighted columns: every subset's NNLS works on it.
-  const Eigen::MatrixXf direct = DirectLobeShading(model, axes, sharpness);
-  std::array<Eigen::MatrixXf, 3> bounce;
-  if (model.bounce) bounce = BounceLobeShadingRgb(model, BounceIrradiance(model, axes, sharpness));
-  std::array<Eigen::MatrixXd, 3> gram;
-  std::array<Eigen::VectorXd, 3> atb;
-  std::array<double, 3> btb{};
-  for (int c = 0; c < 3; ++c) {
-    Eigen::VectorXd row_scale(np), b(np);
-    for (long k = 0; k < np; ++k) {
-      const double sw = std::sqrt(weight[k]);
-      row_scale[k] = sw * model.albedo[k][c] / M_PI;
-      b[k] = sw * targets[k][c];
-    }
-    const Eigen::MatrixXd a =
-        row_scale.asDiagonal() * (model.bounce ? Eigen::MatrixXf(direct + bounce[c]) : direct).cast<double>();
-    gram[c] = a.transpose() * a;
-    atb[c] = a.transpose() * b;
-    btb[c] = b.squaredNorm();
-  }
+  // Every subset's NNLS works on the one system of all the lobes.
+  const LobeNormalEquations eq = BuildLobeNormalEquations(model, weight, targets, lobes);
   // Fit error of a subset, amplitudes by NNLS per channel; `active` (if not
   // null) gets whether each member is lit (> 0) in some channel.
   auto subset_error = [&](const std::vector<long>& set, std::vector<char>* active) {
@@ -664,11 +665,11 @@ std::vector<SgLobe> OrderByElimination(const ShadowPlaneModel& model, const std:
       Eigen::MatrixXd h(m, m);
       Eigen::VectorXd f(m);
       for (long i = 0; i < m; ++i) {
-        f[i] = atb[c][set[i]];
-        for (long j = 0; j < m; ++j) h(i, j) = gram[c](set[i], set[j]);
+        f[i] = eq.atb[c][set[i]];
+        for (long j = 0; j < m; ++j) h(i, j) = eq.gram[c](set[i], set[j]);
       }
       const Eigen::VectorXd x = SolveNnls(h, f);
-      e += btb[c] - 2 * x.dot(f) + x.dot(h * x);
+      e += eq.btb[c] - 2 * x.dot(f) + x.dot(h * x);
       if (active)
         for (long i = 0; i < m; ++i) (*active)[i] |= x[i] > 0;
     }
