@@ -1,7 +1,9 @@
 #include "solver/shadow_plane.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <map>
 
 #include "calib/error.h"
 #include "solver/plane_pixels.h"
@@ -56,9 +58,14 @@ std::vector<float> OccluderConeCosines(const std::vector<SphereTree>& trees, con
 }
 
 void PlaneAngles(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3d>& axes,
-                 const std::vector<float>& caps, Eigen::MatrixXf* theta, std::vector<Eigen::Vector3f>* witness) {
-  if (model.HasCones()) model.cones.Angles(axes, theta, witness, &caps);
-  else SignedAnglesWithWitness(model.occluders, model.points, axes, theta, witness, model.search, &caps);
+                 const std::vector<float>& caps, Eigen::MatrixXf* theta, std::vector<Eigen::Vector3f>* witness,
+                 OccluderCones::AngleHints* hints) {
+  if (model.HasCones()) {
+    model.cones.Angles(axes, theta, witness, &caps, hints);
+    return;
+  }
+  if (hints) *hints = {};  // none learnt
+  SignedAnglesWithWitness(model.occluders, model.points, axes, theta, witness, model.search, &caps);
 }
 
 ShadowPlaneModel MakeShadowPlaneModel(const Scene& scene, const PlanePixels& pixels, ShadingModel shading) {
@@ -120,12 +127,25 @@ Eigen::MatrixXf DirectLobeShading(const ShadowPlaneModel& model, const std::vect
     products[i] = EvalProductLobe(axes[i], sharpness[i], model.normal, model.cosine, /*derivatives=*/false);
     caps[i] = VisibilityCap(products[i]);
   }
+  // theta depends on the axis alone: a dictionary repeats each axis once per
+  // sharpness, so search each distinct axis once, as far as its widest cap
+  // (beyond a lobe's own cap its sigmoid is 1 either way).
+  std::vector<Eigen::Vector3d> unique_axes;
+  std::vector<float> unique_caps;
+  std::vector<long> column(nl);
+  std::map<std::array<double, 3>, long> seen;
+  for (long i = 0; i < nl; ++i) {
+    const auto [it, added] = seen.try_emplace({axes[i].x(), axes[i].y(), axes[i].z()}, unique_axes.size());
+    if (added) unique_axes.push_back(axes[i]), unique_caps.push_back(caps[i]);
+    column[i] = it->second;
+    unique_caps[it->second] = std::max(unique_caps[it->second], caps[i]);
+  }
   Eigen::MatrixXf theta;
-  PlaneAngles(model, axes, caps, &theta, nullptr);
+  PlaneAngles(model, unique_axes, unique_caps, &theta, nullptr);
 #pragma omp parallel for schedule(static)
   for (long k = 0; k < np; ++k)
     for (long i = 0; i < nl; ++i)
-      out(k, i) = static_cast<float>(ShadeLobe(products[i], theta(k, i), Eigen::Vector3d::Zero(),
+      out(k, i) = static_cast<float>(ShadeLobe(products[i], theta(k, column[i]), Eigen::Vector3d::Zero(),
                                                model.cap_occlusion ? model.occluder_cos[k] : kNoOcclusionCap)
                                          .value);
   return out;
