@@ -57,6 +57,7 @@ class RefineCost final : public ceres::CostFunction {
     ExactVisibility::Lobe exact;
     Eigen::VectorXf theta;                  // sphere-tree visibility, per point
     std::vector<Eigen::Vector3f> witness;   // and its witness direction
+    OccluderCones::AngleHints hints;        // what the last search learnt, for the next (one axis)
     std::array<Eigen::VectorXf, 3> bounce;  // per channel, per point
     std::array<Eigen::VectorXf, 3> dbounce; // d bounce / d log sharpness (empty until asked for)
   };

@@ -63,8 +63,10 @@ struct ShadowPlaneModel {
 // theta (and witness directions, when non-null) of every point of the model for
 // the lobes' axes, using the prepared cones when there are. theta is only
 // resolved up to where the lobe's visibility sigmoid saturates (VisibilityCap).
+// hints: OccluderCones::Angles's, used with prepared cones only.
 void PlaneAngles(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3d>& axes,
-                 const std::vector<float>& caps, Eigen::MatrixXf* theta, std::vector<Eigen::Vector3f>* witness);
+                 const std::vector<float>& caps, Eigen::MatrixXf* theta, std::vector<Eigen::Vector3f>* witness,
+                 OccluderCones::AngleHints* hints = nullptr);
 
 // Per point, the cosine of the half-angle of the cone around each caster's
 // bounding sphere (the smallest over casters; 0 inside a bound).

@@ -31,6 +31,9 @@ constexpr double kEnclosesTolerance = 1e-9;
 // subtree is skipped only when its bound beats the best by more than this, so
 // rounding in the bound never hides the true minimum.
 constexpr float kBoundSlackF = 4e-6f;
+// How far above the cap a hint's floor must stay for PointAngles to skip the
+// search: well above float rounding of theta.
+constexpr float kHintMargin = 1e-4f;
 
 // Added to a cap computed in float (angles good to ~1e-7 rad) so that it
 // certainly contains its children's caps.
@@ -306,12 +309,15 @@ struct StackEntry {
 };
 
 // Best-first depth-first branch-and-bound over one tree; updates *best and
-// *best_leaf (flat index). The stack holds at most B entries per level.
+// *best_leaf (flat index), and lowers *floor to a lower bound on the theta
+// of every leaf the search did not beat *best with (pruned subtrees' bounds,
+// leaves' own values). The stack holds at most B entries per level.
 void ExactTreeF(const FlatTree& tr, const ConeTable& t, float mx, float my, float mz, std::vector<StackEntry>* stack,
-                float* best, size_t* best_leaf) {
+                float* best, size_t* best_leaf, float* floor) {
   if (tr.levels == 1) {
     const float v = ConeTheta(t, tr.offset, mx, my, mz);
     if (v < *best) *best = v, *best_leaf = tr.offset;
+    else *floor = std::min(*floor, v);
     return;
   }
   const int B = tr.branching;
@@ -323,14 +329,20 @@ void ExactTreeF(const FlatTree& tr, const ConeTable& t, float mx, float my, floa
   std::array<int, 64> order;
   const float root = ConeTheta(t, tr.offset, mx, my, mz);
   if (root - kBoundSlackF < *best) st[top++] = {root, 0, tr.offset};
+  else *floor = std::min(*floor, root - kBoundSlackF);
   while (top > 0) {
     const StackEntry e = st[--top];
-    if (e.bound - kBoundSlackF >= *best) continue;
+    if (e.bound - kBoundSlackF >= *best) {
+      *floor = std::min(*floor, e.bound - kBoundSlackF);
+      continue;
+    }
     const size_t first = tr.offset + (e.node - tr.offset) * B + 1;
     ConeThetas(t, first, B, mx, my, mz, vals.data());
     if (e.level == leaf_parent_level) {
-      for (int k = 0; k < B; ++k)
+      for (int k = 0; k < B; ++k) {
         if (vals[k] < *best) *best = vals[k], *best_leaf = first + k;
+        else *floor = std::min(*floor, vals[k]);
+      }
       continue;
     }
     // Survivors in decreasing bound (insertion sort: at most B), so the most
@@ -339,7 +351,10 @@ void ExactTreeF(const FlatTree& tr, const ConeTable& t, float mx, float my, floa
     const float limit = *best + kBoundSlackF;
     for (int k = 0; k < B; ++k) {
       const float v = vals[k];
-      if (!(v < limit)) continue;
+      if (!(v < limit)) {
+        *floor = std::min(*floor, v - kBoundSlackF);
+        continue;
+      }
       int pos = m++;
       while (pos > 0 && vals[order[pos - 1]] < v) {
         order[pos] = order[pos - 1];
@@ -484,9 +499,12 @@ void SignedAngles(const std::vector<SphereTree>& world_trees, const std::vector<
 namespace {
 
 // theta (and the witness direction) of every axis for one point's cone table.
+// hint_leaf, hint_floor (optional, in and out, one per axis) and drift (the
+// angle each axis moved since the hints were made): OccluderCones::AngleHints.
 void PointAngles(const FlatTrees& flat, const ConeTable& table, const std::vector<Eigen::Vector3f>& unit,
                  const std::vector<int>& order, SsdfSearch search, const std::vector<float>* caps,
-                 std::vector<StackEntry>* stack, float* out_row, long out_stride, Eigen::Vector3f* witness_row) {
+                 std::vector<StackEntry>* stack, float* out_row, long out_stride, Eigen::Vector3f* witness_row,
+                 uint32_t* hint_leaf = nullptr, float* hint_floor = nullptr, const float* drift = nullptr) {
   constexpr size_t kNone = std::numeric_limits<size_t>::max();
   size_t warm = flat.trees[0].offset + flat.trees[0].leaf_begin;
   for (int a : order) {
@@ -494,14 +512,37 @@ void PointAngles(const FlatTrees& flat, const ConeTable& table, const std::vecto
     float best;
     size_t argmin = warm;
     if (search == SsdfSearch::kExact) {
-      // Start from the cap (no leaf above it matters) or the previous axis's
-      // best leaf, whichever is lower: both prune the descent.
       best = caps ? (*caps)[a] : kInfF;
+      if (hint_floor) {
+        // theta moves by at most the angle its axis moved (every leaf's
+        // angle does): a floor that far above the cap still proves that no
+        // leaf is below it, and the search would return the cap.
+        const float floor = hint_floor[a] - drift[a];
+        if (floor >= best + kHintMargin) {
+          out_row[a * out_stride] = best;
+          if (witness_row) witness_row[a] = Eigen::Vector3f::Zero();
+          hint_leaf[a] = OccluderCones::kNoLeaf;
+          hint_floor[a] = floor;
+          continue;
+        }
+      }
+      // Start from the cap (no leaf above it matters), the previous axis's
+      // best leaf or the caller's hint, whichever is lowest: each prunes the
+      // descent, and each is a real leaf's theta, so the minimum is the same.
       argmin = kNone;
       const float warm_value = ConeTheta(table, warm, mx, my, mz);
       if (warm_value < best) best = warm_value, argmin = warm;
-      for (const FlatTree& tr : flat.trees) ExactTreeF(tr, table, mx, my, mz, stack, &best, &argmin);
+      if (hint_leaf && hint_leaf[a] != OccluderCones::kNoLeaf && hint_leaf[a] < table.alpha.size()) {
+        const float hint_value = ConeTheta(table, hint_leaf[a], mx, my, mz);
+        if (hint_value < best) best = hint_value, argmin = hint_leaf[a];
+      }
+      float floor = kInfF;
+      for (const FlatTree& tr : flat.trees) ExactTreeF(tr, table, mx, my, mz, stack, &best, &argmin, &floor);
       if (argmin != kNone) warm = argmin;
+      if (hint_leaf) {
+        hint_leaf[a] = argmin == kNone ? OccluderCones::kNoLeaf : static_cast<uint32_t>(argmin);
+        hint_floor[a] = argmin == kNone ? floor : best;
+      }
     } else {
       best = kInfF;
       for (const FlatTree& tr : flat.trees) {
@@ -591,8 +632,20 @@ OccluderCones::OccluderCones(const std::vector<SphereTree>& world_trees, const s
 size_t OccluderCones::size() const { return impl_ ? impl_->tables.size() : 0; }
 
 void OccluderCones::Angles(const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* out,
-                           std::vector<Eigen::Vector3f>* witness, const std::vector<float>* caps) const {
+                           std::vector<Eigen::Vector3f>* witness, const std::vector<float>* caps,
+                           AngleHints* hints) const {
   SHADOWSG_CHECK(!caps || caps->size() == axes.size());
+  // Hints for other axes count or points are not hints: start afresh.
+  if (hints && (hints->axes.size() != axes.size() || hints->leaf.size() != size() * axes.size() ||
+                hints->floor.size() != hints->leaf.size() || impl_->search != SsdfSearch::kExact)) {
+    hints->axes.clear();
+    hints->leaf.assign(size() * axes.size(), kNoLeaf);
+    hints->floor.assign(size() * axes.size(), -kInfF);
+  }
+  std::vector<float> drift(axes.size(), 0.0f);
+  for (size_t a = 0; hints && a < hints->axes.size(); ++a)
+    drift[a] = static_cast<float>(std::atan2(hints->axes[a].normalized().cross(axes[a].normalized()).norm(),
+                                             hints->axes[a].normalized().dot(axes[a].normalized())));
   const long np = static_cast<long>(impl_->tables.size());
   const int na = static_cast<int>(axes.size());
   out->resize(np, na);
@@ -600,6 +653,7 @@ void OccluderCones::Angles(const std::vector<Eigen::Vector3d>& axes, Eigen::Matr
   if (np == 0 || na == 0) return;
   if (impl_->flat.trees.empty()) {
     out->setConstant(kInfF);
+    if (hints) hints->axes = axes;  // leaves none, floors -inf: nothing to learn
     return;
   }
   const std::vector<Eigen::Vector3f> unit = UnitAxes(axes);
@@ -611,8 +665,11 @@ void OccluderCones::Angles(const std::vector<Eigen::Vector3d>& axes, Eigen::Matr
 #pragma omp for schedule(dynamic, 32)
     for (long p = 0; p < np; ++p)
       PointAngles(impl_->flat, impl_->tables[p], unit, order, impl_->search, caps, &stack, &(*out)(p, 0), out->rows(),
-                  witness ? &(*witness)[static_cast<size_t>(p) * na] : nullptr);
+                  witness ? &(*witness)[static_cast<size_t>(p) * na] : nullptr,
+                  hints ? &hints->leaf[static_cast<size_t>(p) * na] : nullptr,
+                  hints ? &hints->floor[static_cast<size_t>(p) * na] : nullptr, drift.data());
   }
+  if (hints) hints->axes = axes;
 }
 
 }  // namespace shadowsg

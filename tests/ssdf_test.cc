@@ -171,6 +171,49 @@ TEST(Ssdf, BatchMatchesSingle) {
   }
 }
 
+TEST(Ssdf, HintsGiveTheSameAnglesAsAFreshSearch) {
+  // A solver's axes move a little per iteration; the hints of the last call
+  // skip points whose lower bound stays above the cap and bound the rest.
+  // The steps here are larger than the cap, so points cross it both ways:
+  // a floor not lowered by the axis's drift would skip points now in shadow.
+  const auto trees = TestTrees(31);
+  std::mt19937_64 rng(12);
+  const auto points = TestPoints(rng, 400);
+  const OccluderCones cones(trees, points);
+  std::vector<Eigen::Vector3d> axes = {Eigen::Vector3d(0.3, 0.1, 1).normalized(),
+                                       Eigen::Vector3d(-0.5, 0.4, 0.8).normalized(), Eigen::Vector3d(1, -1, 0.3)};
+  const std::vector<float> caps = {0.15f, 0.4f, 0.05f};
+  OccluderCones::AngleHints hints;
+  const Eigen::AngleAxisd turn(0.08, Eigen::Vector3d(1, 2, 0.5).normalized());
+  long skipped_rows = 0, in_shadow = 0;
+  for (int step = 0; step < 8; ++step) {
+    Eigen::MatrixXf fresh, hinted;
+    std::vector<Eigen::Vector3f> fresh_w, hinted_w;
+    cones.Angles(axes, &fresh, &fresh_w, &caps);
+    cones.Angles(axes, &hinted, &hinted_w, &caps, &hints);
+    ASSERT_EQ(hints.axes.size(), axes.size());
+    for (size_t p = 0; p < points.size(); ++p)
+      for (size_t a = 0; a < axes.size(); ++a) {
+        const size_t i = p * axes.size() + a;
+        ASSERT_EQ(hinted(p, a), fresh(p, a)) << "step " << step << " point " << p << " axis " << a;
+        EXPECT_TRUE(hinted_w[i].isApprox(fresh_w[i])) << "step " << step << " point " << p << " axis " << a;
+        const double truth = SignedAngleBruteForce(trees, points[p], axes[a]);
+        // The floor bounds theta from below, and is theta where a leaf is below the cap.
+        EXPECT_LE(hints.floor[i], truth + 1e-5);
+        if (hints.leaf[i] == OccluderCones::kNoLeaf) {
+          EXPECT_GE(hints.floor[i], caps[a]);
+          skipped_rows += hints.floor[i] > caps[a] + 0.2;  // far enough to skip after the next turn
+        } else {
+          EXPECT_NEAR(hints.floor[i], truth, 1e-5);
+          ++in_shadow;
+        }
+      }
+    for (auto& a : axes) a = turn * a;
+  }
+  EXPECT_GT(skipped_rows, 100);
+  EXPECT_GT(in_shadow, 100);
+}
+
 TEST(Ssdf, BatchPrecisionNearTouchingSphere) {
   // A sphere resting on the plane: points close to the contact point are where
   // asin(r/d) is ill-conditioned; the float path must keep ~1e-5 there too.
