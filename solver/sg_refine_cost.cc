@@ -22,6 +22,10 @@ RefineCost::RefineCost(const ShadowPlaneModel& model, const std::vector<double>&
   cache_.resize(lobes);
 }
 
+void RefineCost::SetHints(int lobe, OccluderCones::AngleHints hints) { cache_.at(lobe).hints = std::move(hints); }
+
+const OccluderCones::AngleHints& RefineCost::Hints(int lobe) const { return cache_.at(lobe).hints; }
+
 void RefineCost::Update(const std::vector<Eigen::Vector3d>& axes, const std::vector<double>& lambda,
                         bool derivatives, bool need_dbounce) const {
   std::vector<int> stale, no_dbounce, need_product;
@@ -61,32 +65,17 @@ void RefineCost::Update(const std::vector<Eigen::Vector3d>& axes, const std::vec
     // A step moves an axis a little: what its last search learnt skips the
     // points it left far from every occluder and bounds the others' search
     // from the start (same theta, fewer nodes visited).
-    const long np = static_cast<long>(model_.points.size()), ns = static_cast<long>(stale.size());
-    OccluderCones::AngleHints hints;
-    bool hinted = true;
-    for (int i : stale) hinted &= cache_[i].hints.axes.size() == 1;
-    if (hinted) {
-      hints.leaf.resize(static_cast<size_t>(np * ns));
-      hints.floor.resize(hints.leaf.size());
-      for (long s = 0; s < ns; ++s) {
-        const OccluderCones::AngleHints& last = cache_[stale[s]].hints;
-        hints.axes.push_back(last.axes[0]);
-        for (long k = 0; k < np; ++k) hints.leaf[k * ns + s] = last.leaf[k], hints.floor[k * ns + s] = last.floor[k];
-      }
-    }
+    std::vector<OccluderCones::AngleHints*> lobe_hints;
+    for (int i : stale) lobe_hints.push_back(&cache_[i].hints);
+    OccluderCones::AngleHints hints = JoinHints(lobe_hints, model_.points.size());
     PlaneAngles(model_, a, caps, &theta, &witness, &hints);
-    const bool learnt = hints.axes.size() == static_cast<size_t>(ns);
+    SplitHints(hints, lobe_hints);
+    const long np = theta.rows(), ns = static_cast<long>(stale.size());
     for (long s = 0; s < ns; ++s) {
       LobeCache& c = cache_[stale[s]];
       c.theta = theta.col(s);
       c.witness.resize(np);
       for (long k = 0; k < np; ++k) c.witness[k] = witness[k * ns + s];
-      c.hints = {};
-      if (!learnt) continue;
-      c.hints.axes = {a[s]};
-      c.hints.leaf.resize(np);
-      c.hints.floor.resize(np);
-      for (long k = 0; k < np; ++k) c.hints.leaf[k] = hints.leaf[k * ns + s], c.hints.floor[k] = hints.floor[k * ns + s];
     }
   }
   if (!model_.bounce) return;

@@ -48,6 +48,12 @@ class RefineCost final : public ceres::CostFunction {
 
   bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override;
 
+  // A lobe's visibility search hints (OccluderCones::AngleHints, one axis),
+  // before the first evaluation (from an earlier fit of the same lobe over
+  // the same points) and after the last (for the next).
+  void SetHints(int lobe, OccluderCones::AngleHints hints);
+  const OccluderCones::AngleHints& Hints(int lobe) const;
+
  private:
   struct LobeCache {
     Eigen::Vector3d axis = Eigen::Vector3d::Zero();

@@ -283,10 +283,13 @@ std::vector<SgLobe> MergeLobes(std::vector<SgLobe> lobes, double overlap) {
 
 // Levenberg-Marquardt of every lobe of *lighting over the points of `model`;
 // drops lobes whose amplitude reaches 0. Returns the iterations run.
+// hints (optional, one per lobe, in and out): the lobes' visibility search
+// hints over the model's points (OccluderCones::AngleHints).
 int RefineLobes(const ShadowPlaneModel& model, const std::vector<double>& weight,
                 const std::vector<Eigen::Vector3f>& targets, int iterations, SgLighting* lighting,
-                const ProgressFn* progress) {
+                const ProgressFn* progress, std::vector<OccluderCones::AngleHints>* hints = nullptr) {
   if (iterations <= 0 || lighting->lobes.empty()) return 0;
+  SHADOWSG_CHECK(!hints || hints->size() == lighting->lobes.size());
   const int L = static_cast<int>(lighting->lobes.size());
   std::vector<double> params(7 * L);
   ceres::Problem problem;
@@ -299,7 +302,10 @@ int RefineLobes(const ShadowPlaneModel& model, const std::vector<double>& weight
     blocks.insert(blocks.end(), {p, p + 3, p + 4});
   }
   // The bounce's sharpness column pays only under exact visibility (sg_refine_cost.h).
-  problem.AddResidualBlock(new RefineCost(model, weight, targets, L, model.exact != nullptr), nullptr, blocks);
+  auto* cost = new RefineCost(model, weight, targets, L, model.exact != nullptr);  // owned by `problem`
+  if (hints)
+    for (int i = 0; i < L; ++i) cost->SetHints(i, std::move((*hints)[i]));
+  problem.AddResidualBlock(cost, nullptr, blocks);
   for (int i = 0; i < L; ++i) {
     problem.SetManifold(&params[7 * i], new ceres::SphereManifold<3>());
     problem.SetParameterLowerBound(&params[7 * i + 3], 0, std::log(kMinSharpness));
@@ -325,6 +331,8 @@ int RefineLobes(const ShadowPlaneModel& model, const std::vector<double>& weight
   }
   ceres::Solver::Summary s;
   ceres::Solve(so, &problem, &s);
+  if (hints)
+    for (int i = 0; i < L; ++i) (*hints)[i] = cost->Hints(i);
   for (int i = 0; i < L; ++i) {
     const double* p = &params[7 * i];
     lighting->lobes[i] = {Eigen::Vector3d(p[0], p[1], p[2]).normalized(), std::exp(p[3]),
@@ -340,9 +348,14 @@ int RefineLobes(const ShadowPlaneModel& model, const std::vector<double>& weight
     total += lit[i];
   }
   std::vector<SgLobe> kept;
+  std::vector<OccluderCones::AngleHints> kept_hints;
   for (size_t i = 0; i < lit.size(); ++i)
-    if (lit[i] > kNegligibleLight * total) kept.push_back(lighting->lobes[i]);
+    if (lit[i] > kNegligibleLight * total) {
+      kept.push_back(lighting->lobes[i]);
+      if (hints) kept_hints.push_back(std::move((*hints)[i]));
+    }
   lighting->lobes = std::move(kept);
+  if (hints) *hints = std::move(kept_hints);
   return static_cast<int>(s.iterations.size());
 }
 
@@ -358,13 +371,14 @@ struct LobeNormalEquations {
 
 LobeNormalEquations BuildLobeNormalEquations(const ShadowPlaneModel& model, const std::vector<double>& weight,
                                              const std::vector<Eigen::Vector3f>& targets,
-                                             const std::vector<SgLobe>& lobes) {
+                                             const std::vector<SgLobe>& lobes,
+                                             std::vector<OccluderCones::AngleHints>* hints = nullptr) {
   const long np = static_cast<long>(model.points.size());
   std::vector<Eigen::Vector3d> axes;
   std::vector<double> sharpness;
   for (const SgLobe& l : lobes) axes.push_back(l.axis), sharpness.push_back(l.sharpness);
   // One batch of shading columns (as the dictionary's), not a render a lobe.
-  const Eigen::MatrixXf direct = DirectLobeShading(model, axes, sharpness);
+  const Eigen::MatrixXf direct = DirectLobeShading(model, axes, sharpness, hints);
   std::array<Eigen::MatrixXf, 3> bounce;
   if (model.bounce) bounce = BounceLobeShadingRgb(model, BounceIrradiance(model, axes, sharpness));
   LobeNormalEquations eq;
@@ -388,9 +402,10 @@ LobeNormalEquations BuildLobeNormalEquations(const ShadowPlaneModel& model, cons
 // its axes and sharpness: the start of LM is then no worse than the model
 // without the newest lobe.
 void ResolveAmplitudes(const ShadowPlaneModel& model, const std::vector<double>& weight,
-                       const std::vector<Eigen::Vector3f>& targets, SgLighting* lighting) {
+                       const std::vector<Eigen::Vector3f>& targets, SgLighting* lighting,
+                       std::vector<OccluderCones::AngleHints>* hints) {
   if (lighting->lobes.empty()) return;
-  const LobeNormalEquations eq = BuildLobeNormalEquations(model, weight, targets, lighting->lobes);
+  const LobeNormalEquations eq = BuildLobeNormalEquations(model, weight, targets, lighting->lobes, hints);
   for (int c = 0; c < 3; ++c) {
     const Eigen::VectorXd a = SolveNnls(eq.gram[c], eq.atb[c]);
     for (size_t i = 0; i < lighting->lobes.size(); ++i) lighting->lobes[i].amplitude[c] = a[static_cast<long>(i)];
@@ -476,6 +491,9 @@ struct FitRun {
   SgSolverSummary sum;
   std::vector<SgLobe> merged;
   SgLighting lighting;
+  // Per lobe of `lighting`, its visibility search hints over the fit pixels:
+  // the next path step's searches start from them.
+  std::vector<OccluderCones::AngleHints> hints;
   std::vector<SgLighting> path;
   std::vector<double> path_mse;
   double best_mse = std::numeric_limits<double>::infinity();
@@ -589,13 +607,14 @@ bool StepFit(FitRun* run, const SgSolverOptions& o) {
   const ShadowPlaneModel& fit_model = *run->fit_model;
   SgLighting& lighting = run->lighting;
   lighting.lobes.push_back(run->merged[k]);
+  run->hints.emplace_back();
   // With the bounce the merged lobes' amplitudes (fitted beside atoms that
   // are gone) start LM badly: pub_torus_sunrise 36.3 -> 37.1 dB median,
   // fast, 4 seeds. Without it the re-solve lost 5 dB on a sunsky seed.
-  if (fit_model.bounce) ResolveAmplitudes(fit_model, run->d->weight, run->d->targets, &lighting);
+  if (fit_model.bounce) ResolveAmplitudes(fit_model, run->d->weight, run->d->targets, &lighting, &run->hints);
   // Lobes not yet in the model carry light the refinement must not miss:
   // the first ones absorb it, later ones give it back.
-  RefineLobes(fit_model, run->d->weight, run->d->targets, o.path_refine_iterations, &lighting, nullptr);
+  RefineLobes(fit_model, run->d->weight, run->d->targets, o.path_refine_iterations, &lighting, nullptr, &run->hints);
   const double mse = WeightedMse(*run->hold_model, lighting, {}, *run->hold_targets);
   run->path.push_back(lighting);
   run->path_mse.push_back(mse);

@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <map>
+#include <numeric>
 
 #include "calib/error.h"
 #include "solver/plane_pixels.h"
@@ -106,7 +107,8 @@ void AddCasterBounce(const Scene& scene, ShadowPlaneModel* model) {
 }
 
 Eigen::MatrixXf DirectLobeShading(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3d>& axes,
-                                  const std::vector<double>& sharpness) {
+                                  const std::vector<double>& sharpness,
+                                  std::vector<OccluderCones::AngleHints>* lobe_hints) {
   const long np = static_cast<long>(model.points.size()), nl = static_cast<long>(axes.size());
   Eigen::MatrixXf out(np, nl);
   if (model.exact) {
@@ -127,21 +129,31 @@ Eigen::MatrixXf DirectLobeShading(const ShadowPlaneModel& model, const std::vect
     products[i] = EvalProductLobe(axes[i], sharpness[i], model.normal, model.cosine, /*derivatives=*/false);
     caps[i] = VisibilityCap(products[i]);
   }
-  // theta depends on the axis alone: a dictionary repeats each axis once per
-  // sharpness, so search each distinct axis once, as far as its widest cap
-  // (beyond a lobe's own cap its sigmoid is 1 either way).
-  std::vector<Eigen::Vector3d> unique_axes;
-  std::vector<float> unique_caps;
-  std::vector<long> column(nl);
-  std::map<std::array<double, 3>, long> seen;
-  for (long i = 0; i < nl; ++i) {
-    const auto [it, added] = seen.try_emplace({axes[i].x(), axes[i].y(), axes[i].z()}, unique_axes.size());
-    if (added) unique_axes.push_back(axes[i]), unique_caps.push_back(caps[i]);
-    column[i] = it->second;
-    unique_caps[it->second] = std::max(unique_caps[it->second], caps[i]);
-  }
+  std::vector<long> column(nl);  // theta's column of each lobe
   Eigen::MatrixXf theta;
-  PlaneAngles(model, unique_axes, unique_caps, &theta, nullptr);
+  if (lobe_hints) {  // hints are per lobe: each lobe its own search
+    SHADOWSG_CHECK(lobe_hints->size() == axes.size());
+    std::vector<OccluderCones::AngleHints*> one_axis;
+    for (auto& h : *lobe_hints) one_axis.push_back(&h);
+    OccluderCones::AngleHints hints = JoinHints(one_axis, model.points.size());
+    PlaneAngles(model, axes, caps, &theta, nullptr, &hints);
+    SplitHints(hints, one_axis);
+    std::iota(column.begin(), column.end(), 0L);
+  } else {
+    // theta depends on the axis alone: a dictionary repeats each axis once
+    // per sharpness, so search each distinct axis once, as far as its widest
+    // cap (beyond a lobe's own cap its sigmoid is 1 either way).
+    std::vector<Eigen::Vector3d> unique_axes;
+    std::vector<float> unique_caps;
+    std::map<std::array<double, 3>, long> seen;
+    for (long i = 0; i < nl; ++i) {
+      const auto [it, added] = seen.try_emplace({axes[i].x(), axes[i].y(), axes[i].z()}, unique_axes.size());
+      if (added) unique_axes.push_back(axes[i]), unique_caps.push_back(caps[i]);
+      column[i] = it->second;
+      unique_caps[it->second] = std::max(unique_caps[it->second], caps[i]);
+    }
+    PlaneAngles(model, unique_axes, unique_caps, &theta, nullptr);
+  }
 #pragma omp parallel for schedule(static)
   for (long k = 0; k < np; ++k)
     for (long i = 0; i < nl; ++i)

@@ -90,9 +90,12 @@ ShadowPlaneModel MakeShadowPlaneModel(const Scene& scene, const PlanePixels& pix
 void AddCasterBounce(const Scene& scene, ShadowPlaneModel* model);
 
 // Direct shading of each lobe at every point of the model, per unit amplitude
-// and unit albedo/pi, without the bounce: points x lobes.
+// and unit albedo/pi, without the bounce: points x lobes. lobe_hints (one per
+// lobe, optional, in and out): each lobe's visibility search hints
+// (OccluderCones::AngleHints) over the model's points.
 Eigen::MatrixXf DirectLobeShading(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3d>& axes,
-                                  const std::vector<double>& sharpness);
+                                  const std::vector<double>& sharpness,
+                                  std::vector<OccluderCones::AngleHints>* lobe_hints = nullptr);
 
 // Per channel, the irradiance per unit amplitude of each lobe at the casters'
 // patches (patches x lobes), the plane's second bounce included.

@@ -672,4 +672,35 @@ void OccluderCones::Angles(const std::vector<Eigen::Vector3d>& axes, Eigen::Matr
   if (hints) hints->axes = axes;
 }
 
+OccluderCones::AngleHints JoinHints(const std::vector<OccluderCones::AngleHints*>& one_axis, size_t points) {
+  const size_t na = one_axis.size();
+  OccluderCones::AngleHints joined;
+  joined.axes.assign(na, Eigen::Vector3d::UnitZ());  // no floor to lower for a fresh column: any axis
+  joined.leaf.assign(points * na, OccluderCones::kNoLeaf);
+  joined.floor.assign(points * na, -kInfF);
+  for (size_t a = 0; a < na; ++a) {
+    const OccluderCones::AngleHints* h = one_axis[a];
+    if (!h || h->axes.size() != 1 || h->leaf.size() != points || h->floor.size() != points) continue;
+    joined.axes[a] = h->axes[0];
+    for (size_t p = 0; p < points; ++p) joined.leaf[p * na + a] = h->leaf[p], joined.floor[p * na + a] = h->floor[p];
+  }
+  return joined;
+}
+
+void SplitHints(const OccluderCones::AngleHints& joined, const std::vector<OccluderCones::AngleHints*>& one_axis) {
+  const size_t na = one_axis.size();
+  const bool learnt = joined.axes.size() == na && na > 0 && joined.leaf.size() % na == 0 &&
+                      joined.floor.size() == joined.leaf.size();
+  const size_t points = learnt ? joined.leaf.size() / na : 0;
+  for (size_t a = 0; a < na; ++a) {
+    OccluderCones::AngleHints& h = *one_axis[a];
+    h = {};
+    if (!learnt) continue;
+    h.axes = {joined.axes[a]};
+    h.leaf.resize(points);
+    h.floor.resize(points);
+    for (size_t p = 0; p < points; ++p) h.leaf[p] = joined.leaf[p * na + a], h.floor[p] = joined.floor[p * na + a];
+  }
+}
+
 }  // namespace shadowsg

@@ -109,6 +109,13 @@ class OccluderCones {
   std::shared_ptr<Impl> impl_;
 };
 
+// One-axis hints (an OccluderCones::AngleHints per lobe, as a solver keeps
+// them) side by side for one Angles call, and back. An entry without hints
+// for `points` points joins as a fresh column; a call that learnt nothing
+// splits into empty entries.
+OccluderCones::AngleHints JoinHints(const std::vector<OccluderCones::AngleHints*>& one_axis, size_t points);
+void SplitHints(const OccluderCones::AngleHints& joined, const std::vector<OccluderCones::AngleHints*>& one_axis);
+
 // The spheres that bound each subtree for the exact search: node i of the
 // result encloses every non-empty leaf below (or at) node i; radius <= 0 where
 // the subtree has no leaf. Leaves are copied. Exposed for tests.

@@ -214,6 +214,48 @@ TEST(Ssdf, HintsGiveTheSameAnglesAsAFreshSearch) {
   EXPECT_GT(in_shadow, 100);
 }
 
+TEST(Ssdf, PerAxisHintsJoinAndSplit) {
+  // A solver keeps one-axis hints per lobe and searches its lobes together;
+  // lobes come and go between calls (a fresh one joins without hints).
+  const auto trees = TestTrees(41);
+  std::mt19937_64 rng(14);
+  const auto points = TestPoints(rng, 300);
+  const OccluderCones cones(trees, points);
+  std::vector<Eigen::Vector3d> axes = {Eigen::Vector3d(0.2, -0.3, 1).normalized(),
+                                       Eigen::Vector3d(0.6, 0.5, 0.7).normalized()};
+  const std::vector<float> caps = {0.2f, 0.1f};
+  std::vector<OccluderCones::AngleHints> kept(2), alone(2);
+  const Eigen::AngleAxisd turn(0.06, Eigen::Vector3d(-1, 1, 0.2).normalized());
+  for (int step = 0; step < 5; ++step) {
+    if (step == 3) kept[1] = {};  // as a lobe new to the model
+    std::vector<OccluderCones::AngleHints*> one_axis = {&kept[0], &kept[1]};
+    OccluderCones::AngleHints joined = JoinHints(one_axis, points.size());
+    Eigen::MatrixXf theta, fresh;
+    cones.Angles(axes, &theta, nullptr, &caps, &joined);
+    SplitHints(joined, one_axis);
+    cones.Angles(axes, &fresh, nullptr, &caps);
+    for (size_t a = 0; a < axes.size(); ++a) {
+      ASSERT_EQ(kept[a].axes.size(), 1u);
+      EXPECT_TRUE(kept[a].axes[0].isApprox(axes[a]));
+      ASSERT_EQ(kept[a].leaf.size(), points.size());
+      Eigen::MatrixXf one;
+      const std::vector<float> cap = {caps[a]};
+      cones.Angles({axes[a]}, &one, nullptr, &cap, &alone[a]);
+      for (size_t p = 0; p < points.size(); ++p) {
+        ASSERT_EQ(theta(p, a), fresh(p, a)) << "step " << step << " point " << p;
+        EXPECT_EQ(kept[a].leaf[p], alone[a].leaf[p]) << "step " << step << " point " << p;
+        EXPECT_LE(kept[a].floor[p], SignedAngleBruteForce(trees, points[p], axes[a]) + 1e-5);
+      }
+    }
+    for (auto& a : axes) a = turn * a;
+  }
+  // A call that learnt nothing (no trees searched with hints) leaves no stale hints behind.
+  OccluderCones::AngleHints nothing;
+  std::vector<OccluderCones::AngleHints*> one_axis = {&kept[0], &kept[1]};
+  SplitHints(nothing, one_axis);
+  EXPECT_TRUE(kept[0].axes.empty() && kept[1].leaf.empty());
+}
+
 TEST(Ssdf, BatchPrecisionNearTouchingSphere) {
   // A sphere resting on the plane: points close to the contact point are where
   // asin(r/d) is ill-conditioned; the float path must keep ~1e-5 there too.
