@@ -753,12 +753,12 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   // sigmoid misjudges how much sky a caster hides from the plane near it, and
   // where that error dominates (pub_torus_sunsky: 43.1 dB without the bounce,
   // 32-42 with it) the direct-only model fits better.
-  const ShadowPlaneModel direct = WithoutBounce(model);
   const size_t nv = model.bounce && o.choose_bounce ? 2 : 1;
-  auto variant = [&](size_t v) -> const ShadowPlaneModel& { return v + 1 < nv ? direct : model; };
+  // Fit v has the bounce unless it is the direct-only one of two.
+  auto has_bounce = [&](size_t v) { return model.bounce != nullptr && v + 1 == nv; };
   const ShadowPlaneModel hold_model = Subset(model, ho.holdout);
   const std::vector<ShadowPlaneModel> hold_models = {WithoutBounce(hold_model), hold_model};
-  auto hold_for = [&](size_t v) -> const ShadowPlaneModel& { return hold_models[variant(v).bounce ? 1 : 0]; };
+  auto hold_for = [&](size_t v) -> const ShadowPlaneModel& { return hold_models[has_bounce(v) ? 1 : 0]; };
 
   // Restarts differ in their fit pixels only. Which local minimum the size
   // path reaches depends on them (pub_torus_sunrise: 32.4-34.2 dB over three
@@ -775,10 +775,10 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
       if (progress)
         sub = [&, index, r, v](double f, const std::string& status) {
           std::string what = o.restarts > 1 ? "fit " + std::to_string(r + 1) + "/" + std::to_string(o.restarts) : "";
-          if (nv > 1) what += std::string(what.empty() ? "" : ", ") + (variant(v).bounce ? "with bounce" : "direct");
+          if (nv > 1) what += std::string(what.empty() ? "" : ", ") + (has_bounce(v) ? "with bounce" : "direct");
           progress((index + f) / runs, what.empty() ? status : what + ": " + status);
         };
-      run[v] = StartFit(data, variant(v).bounce != nullptr, hold_for(v), hold_targets, axes, o, sub);
+      run[v] = StartFit(data, has_bounce(v), hold_for(v), hold_targets, axes, o, sub);
     }
     // The models' size paths step side by side; one whose best held-out
     // error trails the other's far enough (BounceRaceDrops) stops (this
@@ -837,7 +837,7 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
     }
   for (const FitResult& f : fits[v_best]) sum.restart_heldout_mse.push_back(f.heldout_mse);
   sum.restart_chosen = static_cast<int>(chosen[v_best]);
-  sum.bounce = variant(v_best).bounce != nullptr;
+  sum.bounce = has_bounce(v_best);
   if (nv > 1) sum.bounce_heldout_mse = best_seen;
   sum.seconds = Since(start);
   Report(progress, 1.0, std::to_string(sum.lobes_kept) + " lobes");
