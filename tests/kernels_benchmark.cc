@@ -61,6 +61,25 @@ void BM_PreparedCones(benchmark::State& state) {
 }
 BENCHMARK(BM_PreparedCones)->Args({16384, 8})->Unit(benchmark::kMillisecond);
 
+// Levenberg-Marquardt's searches: the same 8 axes turned by 0.01 rad per
+// evaluation, theta capped where a lobe of sharpness ~100 saturates, without
+// (hints = 0) and with (1) the last evaluation's hints (OccluderCones::AngleHints).
+void BM_PreparedConesLm(benchmark::State& state) {
+  const OccluderCones cones({TorusTree()}, PlanePoints(static_cast<int>(state.range(0))));
+  std::vector<Eigen::Vector3d> axes = Axes(8);
+  const std::vector<float> caps(axes.size(), 0.1f);
+  const Eigen::AngleAxisd turn(0.01, Eigen::Vector3d(1, 2, 0.5).normalized());
+  OccluderCones::AngleHints hints;
+  Eigen::MatrixXf theta;
+  std::vector<Eigen::Vector3f> witness;
+  for (auto _ : state) {
+    cones.Angles(axes, &theta, &witness, &caps, state.range(1) ? &hints : nullptr);
+    for (auto& a : axes) a = turn * a;
+  }
+  state.SetItemsProcessed(state.iterations() * cones.size() * axes.size());
+}
+BENCHMARK(BM_PreparedConesLm)->Args({16384, 0})->Args({16384, 1})->Unit(benchmark::kMillisecond);
+
 // Closed-form render of plane points under an SG lighting (sg model).
 void BM_RenderShadowPlane(benchmark::State& state) {
   ShadowPlaneModel model;
