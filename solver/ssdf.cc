@@ -635,7 +635,8 @@ void OccluderCones::Angles(const std::vector<Eigen::Vector3d>& axes, Eigen::Matr
                            std::vector<Eigen::Vector3f>* witness, const std::vector<float>* caps,
                            AngleHints* hints) const {
   SHADOWSG_CHECK(!caps || caps->size() == axes.size());
-  // Hints for other axes count or points are not hints: start afresh.
+  // Hints made for another number of axes or points, or for the coarse-to-fine
+  // search, say nothing about this call: start afresh.
   if (hints && (hints->axes.size() != axes.size() || hints->leaf.size() != size() * axes.size() ||
                 hints->floor.size() != hints->leaf.size() || impl_->search != SsdfSearch::kExact)) {
     hints->axes.clear();
