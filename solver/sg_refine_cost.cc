@@ -67,9 +67,7 @@ void RefineCost::Update(const std::vector<Eigen::Vector3d>& axes, const std::vec
     // from the start (same theta, fewer nodes visited).
     std::vector<OccluderCones::AngleHints*> lobe_hints;
     for (int i : stale) lobe_hints.push_back(&cache_[i].hints);
-    OccluderCones::AngleHints hints = JoinHints(lobe_hints, model_.points.size());
-    PlaneAngles(model_, a, caps, &theta, &witness, &hints);
-    SplitHints(hints, lobe_hints);
+    PlaneAngles(model_, a, caps, &theta, &witness, lobe_hints);
     const long np = theta.rows(), ns = static_cast<long>(stale.size());
     for (long s = 0; s < ns; ++s) {
       LobeCache& c = cache_[stale[s]];

@@ -69,6 +69,15 @@ void PlaneAngles(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3
   SignedAnglesWithWitness(model.occluders, model.points, axes, theta, witness, model.search, &caps);
 }
 
+void PlaneAngles(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3d>& axes,
+                 const std::vector<float>& caps, Eigen::MatrixXf* theta, std::vector<Eigen::Vector3f>* witness,
+                 const std::vector<OccluderCones::AngleHints*>& lobe_hints) {
+  SHADOWSG_CHECK(lobe_hints.size() == axes.size());
+  OccluderCones::AngleHints hints = JoinHints(lobe_hints, model.points.size());
+  PlaneAngles(model, axes, caps, theta, witness, &hints);
+  SplitHints(hints, lobe_hints);
+}
+
 ShadowPlaneModel MakeShadowPlaneModel(const Scene& scene, const PlanePixels& pixels, ShadingModel shading) {
   ShadowPlaneModel model;
   if (shading == ShadingModel::kSg) {
@@ -132,12 +141,9 @@ Eigen::MatrixXf DirectLobeShading(const ShadowPlaneModel& model, const std::vect
   std::vector<long> column(nl);  // theta's column of each lobe
   Eigen::MatrixXf theta;
   if (lobe_hints) {  // hints are per lobe: each lobe its own search
-    SHADOWSG_CHECK(lobe_hints->size() == axes.size());
     std::vector<OccluderCones::AngleHints*> one_axis;
     for (auto& h : *lobe_hints) one_axis.push_back(&h);
-    OccluderCones::AngleHints hints = JoinHints(one_axis, model.points.size());
-    PlaneAngles(model, axes, caps, &theta, nullptr, &hints);
-    SplitHints(hints, one_axis);
+    PlaneAngles(model, axes, caps, &theta, nullptr, one_axis);
     std::iota(column.begin(), column.end(), 0L);
   } else {
     // theta depends on the axis alone: a dictionary repeats each axis once

@@ -67,6 +67,10 @@ struct ShadowPlaneModel {
 void PlaneAngles(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3d>& axes,
                  const std::vector<float>& caps, Eigen::MatrixXf* theta, std::vector<Eigen::Vector3f>* witness,
                  OccluderCones::AngleHints* hints = nullptr);
+// The same with one-axis hints per lobe (in and out), as solvers keep them.
+void PlaneAngles(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3d>& axes,
+                 const std::vector<float>& caps, Eigen::MatrixXf* theta, std::vector<Eigen::Vector3f>* witness,
+                 const std::vector<OccluderCones::AngleHints*>& lobe_hints);
 
 // Per point, the cosine of the half-angle of the cone around each caster's
 // bounding sphere (the smallest over casters; 0 inside a bound).
