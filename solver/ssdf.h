@@ -81,25 +81,29 @@ class OccluderCones {
   OccluderCones(const std::vector<SphereTree>& world_trees, const std::vector<Eigen::Vector3d>& points,
                 SsdfSearch search = SsdfSearch::kExact);
   size_t size() const;
-  // As SignedAnglesWithWitness for the prepared points (witness may be null).
-  // caps (kExact only; one per axis, optional): theta values at or above the
-  // cap are not needed exactly: the search stops there and returns the cap
-  // with a zero witness. The soft visibility sigmoid(k theta) is 1 to double
-  // precision beyond a few tens over k, so solvers pass that.
   // What a search learnt, kept between calls over the same points by a
   // solver whose axes move a little per iteration (kExact only): per (point,
   // axis), [p * axes.size() + a], the leaf that attained the minimum
   // (kNoLeaf: none below the cap) and a lower bound on theta (theta itself
-  // when a leaf was found), both for `axes`. The next call's theta moves by
-  // at most the angle its axis moved, so a bound that stays above the new
-  // cap skips the search, and a leaf bounds it from the start. Results are
-  // those of a search without hints.
+  // when a leaf was found), both for `axes`.
   static constexpr uint32_t kNoLeaf = 0xffffffffu;
   struct AngleHints {
     std::vector<Eigen::Vector3d> axes;  // empty: no hints yet (filled in)
     std::vector<uint32_t> leaf;
     std::vector<float> floor;
   };
+
+  // As SignedAnglesWithWitness for the prepared points (witness may be null).
+  // caps (kExact only; one per axis, optional): theta values at or above the
+  // cap are not needed exactly: the search stops there and returns the cap
+  // with a zero witness. The soft visibility sigmoid(k theta) is 1 to double
+  // precision beyond a few tens over k, so solvers pass that.
+  // hints (optional, in and out): the last call's AngleHints. theta moves by
+  // at most the angle its axis moved, so a bound that stays above the new cap
+  // skips the search, and a leaf bounds it from the start. theta is that of a
+  // search without hints up to float rounding (a tighter first bound may
+  // prune a subtree whose bound ties the minimum), and the attaining leaf may
+  // differ where two leaves tie.
   void Angles(const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* theta,
               std::vector<Eigen::Vector3f>* witness, const std::vector<float>* caps = nullptr,
               AngleHints* hints = nullptr) const;
