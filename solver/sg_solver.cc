@@ -12,6 +12,7 @@
 
 #include "calib/error.h"
 #include "solver/sg_paper_solver.h"
+#include "solver/sg_lobe_scan.h"
 #include "solver/sg_refine_cost.h"
 #include "solver/nnls.h"
 #include "solver/sg_shading.h"
@@ -648,6 +649,19 @@ FitResult FinishFit(FitRun&& run, double signal, const SgSolverOptions& o) {
       }
   }
   SgLighting lighting = run.path[chosen];
+  // The lobe with the strongest shadow, placed by a grid search
+  // (solver/sg_lobe_scan.h), kept where the held-out error falls.
+  double held = run.path_mse[chosen];
+  for (int round = 0; round < o.scan_rounds; ++round) {
+    SgLighting moved = lighting;
+    if (!ScanBrightestSharpLobe(fit_model, d.weight, d.targets, &moved).moved) break;
+    RefineLobes(fit_model, d.weight, d.targets, o.path_refine_iterations, &moved, nullptr);
+    const double h = WeightedMse(*run.hold_model, moved, {}, *run.hold_targets);
+    if (!(h < held)) break;
+    lighting = std::move(moved);
+    held = h;
+    ++sum.scan_moves;
+  }
   sum.fit_mse_selected = WeightedMse(fit_model, lighting, d.weight, d.targets);
 
   // Final joint refinement of the chosen model.

@@ -63,6 +63,9 @@ struct SgSolverOptions {
   int patience = 3;                // stop the size path after this many steps without progress
   int path_refine_iterations = 8;  // LM iterations after each lobe added on the path
   int refine_iterations = 25;      // final LM iterations of the chosen model (0: none)
+  // Grid searches of the lobe with the strongest shadow after the size path
+  // (solver/sg_lobe_scan.h), each kept if the held-out error falls; 0: none.
+  int scan_rounds = 3;
   int restarts = 1;                // fits from independent fit-pixel draws; the best held-out error wins
   // When the model has the casters' bounce: also fit without it and keep
   // whichever has the lower held-out error (up to twice the time).
@@ -80,6 +83,7 @@ struct SgSolverSummary {
   double fit_mse_selected = 0;      // weighted fit MSE before refinement
   double fit_mse_refined = 0;       // and after
   int refine_iterations = 0;
+  int scan_moves = 0;               // grid-search moves of the brightest sharp lobe that were kept
   int invalid_lobes_removed = 0;    // non-finite lobes dropped by the last guard (0 unless a bug or a degenerate fit)
   std::vector<double> restart_heldout_mse;  // final held-out MSE of each restart
   int restart_chosen = 0;

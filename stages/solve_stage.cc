@@ -119,6 +119,7 @@ LightingEstimate SolveWithSg(Scene& scene, const fs::path& scene_dir, const Plan
                    {"fit_mse_refined", summary.fit_mse_refined},
                    {"refine_iterations", summary.refine_iterations},
                    {"invalid_lobes_removed", summary.invalid_lobes_removed},
+                   {"scan_moves", summary.scan_moves},
                    {"restart_heldout_mse", summary.restart_heldout_mse},
                    {"restart_chosen", summary.restart_chosen},
                    {"theta_seconds", summary.theta_seconds},
