@@ -23,6 +23,10 @@
 //    best held-out error is kept ("no more lobes than the scene needs") and
 //    refined further. (A path from large to small was tried: worse on the
 //    closed-form three-lobe test, 34 dB against 98.)
+//    Before that refinement, the lobe with the strongest shadow is placed by
+//    a grid search (solver/sg_lobe_scan.h) and refined, for as long as the
+//    held-out error falls: LM cannot carry a sharp lobe across the ridges
+//    that its shadow's edges make in the error.
 // 5. Restarts: steps 2-4 again on fresh fit pixels; the fit with the lowest
 //    error on the one shared held-out set wins (or a smaller one within
 //    tolerance). Which local minimum the size path reaches depends on the
