@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <limits>
 
 #include "calib/error.h"
 #include "solver/nnls.h"
@@ -44,6 +43,7 @@ LobeScanResult ScanBrightestSharpLobe(const ShadowPlaneModel& model, const std::
                                       const std::vector<Eigen::Vector3f>& targets, SgLighting* lighting,
                                       const LobeScanOptions& o) {
   SHADOWSG_CHECK(weight.size() == model.points.size() && targets.size() == model.points.size());
+  SHADOWSG_CHECK(o.elevation_step_deg > 0 && o.azimuth_step_deg > 0);
   LobeScanResult result;
   const long L = static_cast<long>(lighting->lobes.size());
   double brightest = 0;

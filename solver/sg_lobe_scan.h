@@ -39,7 +39,7 @@ struct LobeScanResult {
 // every amplitude from the NNLS of that grid point. weight: per point of
 // `model`, targets likewise.
 LobeScanResult ScanBrightestSharpLobe(const ShadowPlaneModel& model, const std::vector<double>& weight,
-                                  const std::vector<Eigen::Vector3f>& targets, SgLighting* lighting,
-                                  const LobeScanOptions& options = {});
+                                      const std::vector<Eigen::Vector3f>& targets, SgLighting* lighting,
+                                      const LobeScanOptions& options = {});
 
 }  // namespace shadowsg
