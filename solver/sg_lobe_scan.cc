@@ -17,26 +17,6 @@ constexpr double kDeg = M_PI / 180;
 constexpr double kMinElevation = -5 * kDeg;
 constexpr double kMaxElevation = 89 * kDeg;
 
-// Shading columns (points x lobes) per channel, scaled as the weighted
-// least-squares rows: sqrt(w_k) rho_kc/pi (direct + bounce).
-std::array<Eigen::MatrixXf, 3> WeightedColumns(const ShadowPlaneModel& model, const std::vector<double>& weight,
-                                               const std::vector<SgLobe>& lobes) {
-  std::vector<Eigen::Vector3d> axes;
-  std::vector<double> sharpness;
-  for (const SgLobe& l : lobes) axes.push_back(l.axis), sharpness.push_back(l.sharpness);
-  const Eigen::MatrixXf direct = DirectLobeShading(model, axes, sharpness);
-  std::array<Eigen::MatrixXf, 3> bounce;
-  if (model.bounce) bounce = BounceLobeShadingRgb(model, BounceIrradiance(model, axes, sharpness));
-  std::array<Eigen::MatrixXf, 3> out;
-  for (int c = 0; c < 3; ++c) {
-    Eigen::VectorXf row(static_cast<long>(model.points.size()));
-    for (long k = 0; k < row.size(); ++k)
-      row[k] = static_cast<float>(std::sqrt(weight[k]) * model.albedo[k][c] / M_PI);
-    out[c] = row.asDiagonal() * (model.bounce ? Eigen::MatrixXf(direct + bounce[c]) : direct);
-  }
-  return out;
-}
-
 }  // namespace
 
 LobeScanResult ScanBrightestSharpLobe(const ShadowPlaneModel& model, const std::vector<double>& weight,
@@ -91,8 +71,13 @@ LobeScanResult ScanBrightestSharpLobe(const ShadowPlaneModel& model, const std::
 
   // Per channel, the normal equations of [others | candidate j] share the
   // others' block; only the candidate's row changes.
-  const std::array<Eigen::MatrixXf, 3> ao = WeightedColumns(model, weight, others);
-  const std::array<Eigen::MatrixXf, 3> ac = WeightedColumns(model, weight, candidates);
+  auto shading = [&](const std::vector<SgLobe>& lobes) {
+    std::vector<Eigen::Vector3d> axes;
+    std::vector<double> sharpness;
+    for (const SgLobe& l : lobes) axes.push_back(l.axis), sharpness.push_back(l.sharpness);
+    return LobeColumns(model, axes, sharpness);
+  };
+  const LobeShadingColumns ao = shading(others), ac = shading(candidates);
   const long m = static_cast<long>(others.size()), nc = static_cast<long>(candidates.size());
   Eigen::VectorXd error = Eigen::VectorXd::Zero(nc);
   double signal = 0;  // b^T b over the channels
@@ -102,7 +87,7 @@ LobeScanResult ScanBrightestSharpLobe(const ShadowPlaneModel& model, const std::
     for (long k = 0; k < b.size(); ++k) b[k] = std::sqrt(weight[k]) * targets[k][c];
     // In double: the error is b^T b less nearly as much, and float sums
     // would leave rounding of the order of a good fit's error.
-    const Eigen::MatrixXd o_col = ao[c].cast<double>(), c_col = ac[c].cast<double>();
+    const Eigen::MatrixXd o_col = ao.Weighted(model, weight, c), c_col = ac.Weighted(model, weight, c);
     const Eigen::MatrixXd goo = o_col.transpose() * o_col;
     const Eigen::MatrixXd goc = o_col.transpose() * c_col;
     const Eigen::VectorXd gcc = c_col.colwise().squaredNorm().transpose();

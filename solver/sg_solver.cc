@@ -379,19 +379,12 @@ LobeNormalEquations BuildLobeNormalEquations(const ShadowPlaneModel& model, cons
   std::vector<double> sharpness;
   for (const SgLobe& l : lobes) axes.push_back(l.axis), sharpness.push_back(l.sharpness);
   // One batch of shading columns (as the dictionary's), not a render a lobe.
-  const Eigen::MatrixXf direct = DirectLobeShading(model, axes, sharpness, hints);
-  std::array<Eigen::MatrixXf, 3> bounce;
-  if (model.bounce) bounce = BounceLobeShadingRgb(model, BounceIrradiance(model, axes, sharpness));
+  const LobeShadingColumns shading = LobeColumns(model, axes, sharpness, hints);
   LobeNormalEquations eq;
   for (int c = 0; c < 3; ++c) {
-    Eigen::VectorXd row_scale(np), b(np);
-    for (long k = 0; k < np; ++k) {
-      const double sw = std::sqrt(weight[k]);
-      row_scale[k] = sw * model.albedo[k][c] / M_PI;
-      b[k] = sw * targets[k][c];
-    }
-    const Eigen::MatrixXd a =
-        row_scale.asDiagonal() * (model.bounce ? Eigen::MatrixXf(direct + bounce[c]) : direct).cast<double>();
+    Eigen::VectorXd b(np);
+    for (long k = 0; k < np; ++k) b[k] = std::sqrt(weight[k]) * targets[k][c];
+    const Eigen::MatrixXd a = shading.Weighted(model, weight, c);
     eq.gram[c] = a.transpose() * a;
     eq.atb[c] = a.transpose() * b;
     eq.btb[c] = b.squaredNorm();

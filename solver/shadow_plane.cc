@@ -208,6 +208,23 @@ Eigen::MatrixXf BounceLobeShading(const ShadowPlaneModel& model, const std::arra
   return GatherBounce(model, radiance);
 }
 
+LobeShadingColumns LobeColumns(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3d>& axes,
+                               const std::vector<double>& sharpness,
+                               std::vector<OccluderCones::AngleHints>* lobe_hints) {
+  LobeShadingColumns s;
+  s.direct = DirectLobeShading(model, axes, sharpness, lobe_hints);
+  if (model.bounce) s.bounce = BounceLobeShadingRgb(model, BounceIrradiance(model, axes, sharpness));
+  return s;
+}
+
+Eigen::MatrixXd LobeShadingColumns::Weighted(const ShadowPlaneModel& model, const std::vector<double>& weight,
+                                             int c) const {
+  SHADOWSG_CHECK(weight.size() == model.points.size() && direct.rows() == static_cast<long>(weight.size()));
+  Eigen::VectorXd row_scale(direct.rows());
+  for (long k = 0; k < row_scale.size(); ++k) row_scale[k] = std::sqrt(weight[k]) * model.albedo[k][c] / M_PI;
+  return row_scale.asDiagonal() * (bounce[c].size() ? Eigen::MatrixXf(direct + bounce[c]) : direct).cast<double>();
+}
+
 std::array<Eigen::MatrixXf, 3> BounceLobeShadingRgb(const ShadowPlaneModel& model,
                                                     const std::array<Eigen::MatrixXf, 3>& irradiance) {
   SHADOWSG_CHECK(model.bounce);

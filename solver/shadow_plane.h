@@ -113,6 +113,20 @@ Eigen::MatrixXf BounceLobeShading(const ShadowPlaneModel& model, const std::arra
 std::array<Eigen::MatrixXf, 3> BounceLobeShadingRgb(const ShadowPlaneModel& model,
                                                     const std::array<Eigen::MatrixXf, 3>& irradiance);
 
+// Each lobe's shading at the model's points, per unit amplitude and unit
+// albedo/pi: direct light, and per channel the casters' bounce when the model
+// has it. Weighted(c) gives channel c's columns as the rows of a weighted
+// least-squares system, sqrt(w_k) rho_kc/pi (direct + bounce): what the
+// solvers' amplitude NNLS works on.
+struct LobeShadingColumns {
+  Eigen::MatrixXf direct;                 // points x lobes
+  std::array<Eigen::MatrixXf, 3> bounce;  // per channel; empty without the bounce
+  Eigen::MatrixXd Weighted(const ShadowPlaneModel& model, const std::vector<double>& weight, int c) const;
+};
+LobeShadingColumns LobeColumns(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3d>& axes,
+                               const std::vector<double>& sharpness,
+                               std::vector<OccluderCones::AngleHints>* lobe_hints = nullptr);
+
 // Closed-form radiance of every point (direct light, plus the casters'
 // bounce when the model has it; bounce_share, when given, receives that
 // part alone). Multithreaded.
