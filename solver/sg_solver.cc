@@ -57,6 +57,7 @@ bool SgSolverOptions::IsValid(std::string* error) const {
   for (double s : sharpness)
     if (!(s > 0)) return fail("sharpness values must be positive");
   if (fit_pixels < 16 || holdout_pixels < 16) return fail("fit and held-out sets need >= 16 pixels");
+  if (judge_pixels < 0) return fail("judge_pixels must be >= 0");
   if (!(size_tolerance >= 0)) return fail("size_tolerance must be >= 0");
   if (refine_iterations < 0) return fail("refine_iterations must be >= 0");
   if (restarts < 1) return fail("restarts must be >= 1");
@@ -773,8 +774,11 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   std::vector<std::vector<FitResult>> fits(nv);
   std::vector<double> best_seen(nv, std::numeric_limits<double>::infinity());  // per model, over restarts
   const int runs = o.restarts * static_cast<int>(nv);
+  std::vector<char> fitted(model.points.size(), 0);  // in some restart's fit set
   for (int r = 0; r < o.restarts; ++r) {
-    const FitData data = PrepareFit(model, targets, SampleFit(model, targets, ho.rest, o, rng), axes, o);
+    const FitSet set = SampleFit(model, targets, ho.rest, o, rng);
+    for (size_t i : set.fit) fitted[i] = 1;
+    const FitData data = PrepareFit(model, targets, set, axes, o);
     std::vector<FitRun> run(nv);
     for (size_t v = 0; v < nv; ++v) {
       const int index = r * static_cast<int>(nv) + static_cast<int>(v);
@@ -812,24 +816,56 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
       best_seen[v] = std::min(best_seen[v], raced[v]);
     }
   }
-  // Per model: the lowest held-out error, or a smaller model within
-  // tolerance of it; across models, the lower held-out error.
-  auto choose = [&](const std::vector<FitResult>& f) {
+  // The finished fits are judged on the held-out set or, where there is a
+  // choice, on a larger one: the held-out pixels and more that no restart
+  // fitted (in the held-out draw's shuffled order). Balanced, pub_torus_sunsky
+  // seed 3: the bounce model's 16 lobes led the direct model's 3 by 2.4 % on
+  // the 2000 held-out pixels and lost 1 dB on the image.
+  std::vector<std::vector<double>> score(nv);
+  size_t finished = 0;
+  for (size_t v = 0; v < nv; ++v) {
+    for (const FitResult& f : fits[v]) score[v].push_back(f.heldout_mse);
+    finished += fits[v].size();
+  }
+  std::vector<size_t> judge;
+  if (finished > 1 && static_cast<size_t>(o.judge_pixels) > ho.holdout.size()) {
+    judge = ho.holdout;
+    for (size_t i : ho.rest) {
+      if (judge.size() >= static_cast<size_t>(o.judge_pixels)) break;
+      if (!fitted[i]) judge.push_back(i);
+    }
+    if (judge.size() == ho.holdout.size()) judge.clear();  // every other pixel was fitted
+  }
+  if (!judge.empty()) {
+    const std::vector<Eigen::Vector3f> judge_targets = Gather(targets, judge);
+    const bool any_bounce = model.bounce && !fits[nv - 1].empty();
+    const ShadowPlaneModel judge_model = Subset(any_bounce ? model : WithoutBounce(model), judge);
+    const ShadowPlaneModel judge_direct = WithoutBounce(judge_model);
+    for (size_t v = 0; v < nv; ++v)
+      for (size_t r = 0; r < fits[v].size(); ++r)
+        if (!fits[v][r].lighting.lobes.empty())
+          score[v][r] = WeightedMse(has_bounce(v) ? judge_model : judge_direct, fits[v][r].lighting, {}, judge_targets);
+  }
+  // Per model: the lowest error, or a smaller model within tolerance of it;
+  // across models, the lower error.
+  auto choose = [&](size_t v) {
+    const std::vector<FitResult>& f = fits[v];
+    const std::vector<double>& e = score[v];
     size_t best = 0;
     for (size_t r = 1; r < f.size(); ++r)
-      if (f[r].heldout_mse < f[best].heldout_mse) best = r;
+      if (e[r] < e[best]) best = r;
     size_t chosen = best;
-    const double limit = f[best].heldout_mse * (1 + o.size_tolerance) + kSizeNoiseFloor * signal;
+    const double limit = e[best] * (1 + o.size_tolerance) + kSizeNoiseFloor * signal;
     for (size_t r = 0; r < f.size(); ++r)
-      if (f[r].heldout_mse <= limit && f[r].sum.lobes_kept < f[chosen].sum.lobes_kept) chosen = r;
+      if (e[r] <= limit && f[r].sum.lobes_kept < f[chosen].sum.lobes_kept) chosen = r;
     return chosen;
   };
   std::vector<size_t> chosen(nv, 0);
   size_t v_best = nv;
   for (size_t v = 0; v < nv; ++v) {
     if (fits[v].empty()) continue;  // out of the race
-    chosen[v] = choose(fits[v]);
-    if (v_best == nv || fits[v][chosen[v]].heldout_mse < fits[v_best][chosen[v_best]].heldout_mse) v_best = v;
+    chosen[v] = choose(v);
+    if (v_best == nv || score[v][chosen[v]] < score[v_best][chosen[v_best]]) v_best = v;
   }
   const FitResult& win = fits[v_best][chosen[v_best]];
   if (win.lighting.lobes.empty()) throw std::runtime_error("sg: no lobe lowers the error (is the plane lit at all?)");
@@ -843,6 +879,8 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
       sum.refine_seconds += f.sum.refine_seconds;
     }
   for (const FitResult& f : fits[v_best]) sum.restart_heldout_mse.push_back(f.heldout_mse);
+  if (!judge.empty()) sum.restart_judged_mse = score[v_best];
+  sum.judge_pixels = static_cast<int>(judge.size());
   sum.restart_chosen = static_cast<int>(chosen[v_best]);
   sum.bounce = has_bounce(v_best);
   if (nv > 1) sum.bounce_heldout_mse = best_seen;

@@ -34,6 +34,10 @@
 // 6. With the casters' bounce in the model (solver/caster_bounce.h) and
 //    choose_bounce: the fits with and without it race on the held-out set;
 //    the loser stops once clearly behind, the lower held-out error wins.
+// 7. Where more than one fit finished (restarts, both racers), the winner is
+//    chosen on a judging set: the held-out pixels and more that no restart
+//    fitted (judge_pixels in all); the held-out set's 2000 pixels steer the
+//    size path but cannot tell two final fits a few percent apart.
 // The cosine is integrated exactly (solver/cosine_integral.h) rather than
 // through the paper's one-SG fit.
 #pragma once
@@ -59,6 +63,11 @@ struct SgSolverOptions {
   // local minimum. The presets use 6000 pixels with restarts instead.)
   int fit_pixels = 16384;
   int holdout_pixels = 4096;
+  // Where more than one fit finishes (restarts, the bounce race), they are
+  // compared on this many held-out pixels (the held-out set and more, none
+  // of them fitted): 2000 pixels cannot tell two fits a few percent apart.
+  // 0: on the held-out set alone.
+  int judge_pixels = 16000;
   double size_tolerance = 0.02;  // keep the smallest model within 2 % of the best held-out MSE
   int max_atoms = 160;             // active-set size cap of the dictionary fit
   double kkt_tolerance = 1e-4;     // stop the dictionary fit when no atom's gradient beats this (relative)
@@ -90,6 +99,8 @@ struct SgSolverSummary {
   int scan_moves = 0;               // grid-search moves of the brightest sharp lobe that were kept
   int invalid_lobes_removed = 0;    // non-finite lobes dropped by the last guard (0 unless a bug or a degenerate fit)
   std::vector<double> restart_heldout_mse;  // final held-out MSE of each restart
+  std::vector<double> restart_judged_mse;   // and on the judging set (empty when one fit finished)
+  int judge_pixels = 0;                     // pixels of the judging set (0: none was needed)
   int restart_chosen = 0;
   bool bounce = false;                      // the chosen model has the casters' bounce
   std::vector<double> bounce_heldout_mse;   // choose_bounce: best held-out MSE without, then with, the bounce (a model that

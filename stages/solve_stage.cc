@@ -121,6 +121,8 @@ LightingEstimate SolveWithSg(Scene& scene, const fs::path& scene_dir, const Plan
                    {"invalid_lobes_removed", summary.invalid_lobes_removed},
                    {"scan_moves", summary.scan_moves},
                    {"restart_heldout_mse", summary.restart_heldout_mse},
+                   {"restart_judged_mse", summary.restart_judged_mse},
+                   {"judge_pixels", summary.judge_pixels},
                    {"restart_chosen", summary.restart_chosen},
                    {"theta_seconds", summary.theta_seconds},
                    {"select_seconds", summary.select_seconds},

@@ -117,6 +117,49 @@ TEST(SgSolver, RestartsKeepTheBestHeldOutFitWithinBounds) {
   EXPECT_DOUBLE_EQ(s1.restart_heldout_mse[0], s.restart_heldout_mse[0]);
 }
 
+// With a choice of fits, the judging set (held-out pixels and every pixel no
+// restart fitted, here) picks: the kept fit is the best on it, or a smaller
+// one within tolerance. judge_pixels = 0 leaves the choice to the held-out set.
+TEST(SgSolver, FinishedFitsAreJudgedOnMorePixelsThanTheHeldOutSet) {
+  ShadowPlaneModel model = TestPlaneModel(64, CosineModel::kExact);
+  model.upper_hemisphere_only = false;
+  const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, Cases()[1].truth);
+  SgSolverOptions o = SgSolverOptions::Budget("fast");
+  o.restarts = 3;
+  o.fit_pixels = 600;      // of 4096 points: most are left for judging
+  o.holdout_pixels = 100;  // few: their verdict is noisy
+  o.judge_pixels = 4096;
+  o.seed = 5;
+  SgSolverSummary s;
+  const SgLighting est = SolveSg(model, targets, o, &s);
+  ASSERT_EQ(s.restart_judged_mse.size(), 3u);
+  ASSERT_EQ(s.restart_heldout_mse.size(), 3u);
+  // 100 held-out pixels and at least 4096 - 100 - 3 x 600 never fitted.
+  EXPECT_GE(s.judge_pixels, 4096 - 3 * 600);
+  EXPECT_LE(s.judge_pixels, 4096);
+  const double best = *std::min_element(s.restart_judged_mse.begin(), s.restart_judged_mse.end());
+  EXPECT_LE(s.restart_judged_mse[s.restart_chosen], best * (1 + o.size_tolerance) + 1e-9);
+  for (size_t r = 0; r < 3; ++r) EXPECT_NE(s.restart_judged_mse[r], s.restart_heldout_mse[r]);
+  // The judged error of the kept fit is its error on most of the image.
+  double se = 0;
+  const std::vector<Eigen::Vector3f> render = RenderShadowPlane(model, est);
+  for (size_t k = 0; k < render.size(); ++k) se += (render[k] - targets[k]).cast<double>().squaredNorm();
+  const double image_mse = se / (3.0 * render.size());
+  EXPECT_NEAR(s.restart_judged_mse[s.restart_chosen], image_mse, 0.5 * image_mse);
+
+  SgSolverOptions held = o;
+  held.judge_pixels = 0;
+  SgSolverSummary h;
+  SolveSg(model, targets, held, &h);
+  EXPECT_EQ(h.judge_pixels, 0);
+  EXPECT_TRUE(h.restart_judged_mse.empty());
+  // Same draws, same fits: only the verdict changed hands.
+  ASSERT_EQ(h.restart_heldout_mse.size(), 3u);
+  for (size_t r = 0; r < 3; ++r) EXPECT_DOUBLE_EQ(h.restart_heldout_mse[r], s.restart_heldout_mse[r]);
+  const double best_held = *std::min_element(h.restart_heldout_mse.begin(), h.restart_heldout_mse.end());
+  EXPECT_LE(h.restart_heldout_mse[h.restart_chosen], best_held * (1 + o.size_tolerance) + 1e-9);
+}
+
 // The size path takes lobes in the reverse order of backward elimination: a
 // low sun whose shadow the image needs comes before half of a sky that the
 // other half can stand in for, although each half lights the plane more
