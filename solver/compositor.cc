@@ -156,17 +156,7 @@ struct SurfaceSample {
 // The `sg` model of the plane at `points` with the given occluders (eval's).
 ShadowPlaneModel PlaneModel(const Scene& scene, const std::vector<Eigen::Vector3d>& points,
                             const std::vector<SphereTree>& occluders) {
-  ShadowPlaneModel model;
-  model.points = points;
-  model.normal = scene.plane.normal;
-  model.albedo.reserve(points.size());
-  for (const auto& p : points) model.albedo.push_back(PlaneAlbedo(scene.plane, p).cast<float>());
-  model.occluders = occluders;
-  model.cosine = CosineModel::kExact;
-  model.cap_occlusion = true;
-  model.upper_hemisphere_only = false;
-  model.occluder_cos = OccluderConeCosines(model.occluders, model.points);
-  return model;
+  return MakeShadowPlaneModel(scene.plane, points, occluders, ShadingModel::kSg);
 }
 
 // Closed-form SG radiance of surface samples: for each,

@@ -78,7 +78,8 @@ void PlaneAngles(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3
   SplitHints(hints, lobe_hints);
 }
 
-ShadowPlaneModel MakeShadowPlaneModel(const Scene& scene, const PlanePixels& pixels, ShadingModel shading) {
+ShadowPlaneModel MakeShadowPlaneModel(const Plane& plane, const std::vector<Eigen::Vector3d>& points,
+                                      std::vector<SphereTree> occluders, ShadingModel shading) {
   ShadowPlaneModel model;
   if (shading == ShadingModel::kSg) {
     model.cosine = CosineModel::kExact;
@@ -89,16 +90,22 @@ ShadowPlaneModel MakeShadowPlaneModel(const Scene& scene, const PlanePixels& pix
     model.cap_occlusion = true;
     model.upper_hemisphere_only = false;
   }
-  model.points = pixels.point;
-  model.normal = scene.plane.normal;
-  model.albedo.reserve(pixels.size());
-  for (const auto& p : pixels.point) model.albedo.push_back(PlaneAlbedo(scene.plane, p).cast<float>());
-  for (const SceneObject* o : scene.Casters()) {
-    SHADOWSG_CHECK(o->sphere_tree.has_value());
-    model.occluders.push_back(TransformSphereTree(*o->sphere_tree, o->o2w));
-  }
+  model.points = points;
+  model.normal = plane.normal;
+  model.albedo.reserve(points.size());
+  for (const auto& p : points) model.albedo.push_back(PlaneAlbedo(plane, p).cast<float>());
+  model.occluders = std::move(occluders);
   model.occluder_cos = OccluderConeCosines(model.occluders, model.points);
   return model;
+}
+
+ShadowPlaneModel MakeShadowPlaneModel(const Scene& scene, const PlanePixels& pixels, ShadingModel shading) {
+  std::vector<SphereTree> occluders;
+  for (const SceneObject* o : scene.Casters()) {
+    SHADOWSG_CHECK(o->sphere_tree.has_value());
+    occluders.push_back(TransformSphereTree(*o->sphere_tree, o->o2w));
+  }
+  return MakeShadowPlaneModel(scene.plane, pixels.point, std::move(occluders), shading);
 }
 
 void AddCasterBounce(const Scene& scene, ShadowPlaneModel* model) {

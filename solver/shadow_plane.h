@@ -88,6 +88,11 @@ enum class ShadingModel { kPaper, kSg };
 // The model of a scene's plane pixels; every caster must have a sphere tree.
 ShadowPlaneModel MakeShadowPlaneModel(const Scene& scene, const PlanePixels& pixels,
                                       ShadingModel shading = ShadingModel::kPaper);
+// The model of any points of `plane` under `occluders` (the compositor's
+// points, with or without the virtual objects): the one place that says what
+// each ShadingModel sets.
+ShadowPlaneModel MakeShadowPlaneModel(const Plane& plane, const std::vector<Eigen::Vector3d>& points,
+                                      std::vector<SphereTree> occluders, ShadingModel shading);
 
 // Adds the casters' bounce (solver/caster_bounce.h) to a model whose
 // visibility (spheres or exact) is already set; `sg` only.
