@@ -111,8 +111,10 @@ struct SgSolverSummary {
 // The race between the fits with and without the bounce (step 6): after
 // `steps` steps of its size path (the other's after other_steps), a model
 // whose best held-out error is `best` against the other's other_best stops
-// when it trails 5x after two steps or 2x after four.
-bool BounceRaceDrops(size_t steps, size_t other_steps, double best, double other_best);
+// when it trails 5x after two steps or 2x after four; once both paths have
+// ended (paths_ended), when it trails by more than 8 %: only the leader gets
+// the grid search and the final refinement.
+bool BounceRaceDrops(size_t steps, size_t other_steps, double best, double other_best, bool paths_ended = false);
 
 // The order in which the size path adds the merged lobes: the reverse of
 // backward elimination on the model's points. Starting from all of them, the

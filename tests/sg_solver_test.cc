@@ -223,6 +223,11 @@ TEST(SgSolver, BounceRaceDropsOnlyAClearLoser) {
   EXPECT_TRUE(BounceRaceDrops(4, 4, 2.1, 1.0));
   EXPECT_FALSE(BounceRaceDrops(4, 4, 1.9, 1.0));
   EXPECT_FALSE(BounceRaceDrops(6, 6, 1.0, 2.1));  // the leader never stops
+  // Once both paths ended, a loser by more than 8 % is not finished.
+  EXPECT_FALSE(BounceRaceDrops(6, 9, 1.07, 1.0));
+  EXPECT_TRUE(BounceRaceDrops(6, 9, 1.09, 1.0, /*paths_ended=*/true));
+  EXPECT_FALSE(BounceRaceDrops(6, 9, 1.07, 1.0, /*paths_ended=*/true));
+  EXPECT_FALSE(BounceRaceDrops(6, 9, 1.0, 1.09, /*paths_ended=*/true));
 }
 
 TEST(SgPaper, ReducesLossPrunesAndIsDeterministic) {
