@@ -28,12 +28,12 @@
 //    held-out error falls: LM cannot carry a sharp lobe across the ridges
 //    that its shadow's edges make in the error.
 // 5. Restarts: steps 2-4 again on fresh fit pixels; the fit with the lowest
-//    error on the one shared held-out set wins (or a smaller one within
-//    tolerance). Which local minimum the size path reaches depends on the
-//    pixels; the held-out set tells them apart.
+//    error wins (or a smaller one within tolerance; step 7). Which local
+//    minimum the size path reaches depends on the pixels.
 // 6. With the casters' bounce in the model (solver/caster_bounce.h) and
 //    choose_bounce: the fits with and without it race on the held-out set;
-//    the loser stops once clearly behind, the lower held-out error wins.
+//    the loser stops once clearly behind (BounceRaceDrops), the lower error
+//    wins.
 // 7. Where more than one fit finished (restarts, both racers), the winner is
 //    chosen on a judging set: the held-out pixels and more that no restart
 //    fitted (judge_pixels in all); the held-out set's 2000 pixels steer the
