@@ -22,6 +22,13 @@ double Psnr(const std::vector<Eigen::Vector3f>& r, const std::vector<Eigen::Vect
   return 10 * std::log10(range * range / (se / (3.0 * gt.size())));
 }
 
+// The closed-form test plane as `sg` models it: exact cosine, every lobe kept.
+ShadowPlaneModel SgTestModel(int grid) {
+  ShadowPlaneModel model = TestPlaneModel(grid, CosineModel::kExact);
+  model.upper_hemisphere_only = false;
+  return model;
+}
+
 double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) * 180 / M_PI;
 }
@@ -55,8 +62,7 @@ std::vector<Case> Cases() {
 
 TEST(SgSolver, RecoversClosedFormScenes) {
   for (const Case& c : Cases()) {
-    ShadowPlaneModel model = TestPlaneModel(96, CosineModel::kExact);
-    model.upper_hemisphere_only = false;
+    const ShadowPlaneModel model = SgTestModel(96);
     const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, c.truth);
     SgSolverOptions o = SgSolverOptions::Budget("balanced");
     SgSolverSummary s;
@@ -69,8 +75,7 @@ TEST(SgSolver, RecoversClosedFormScenes) {
 }
 
 TEST(SgSolver, ForcedLobeCountAndDeterminism) {
-  ShadowPlaneModel model = TestPlaneModel(48, CosineModel::kExact);
-  model.upper_hemisphere_only = false;
+  const ShadowPlaneModel model = SgTestModel(48);
   const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, Cases()[1].truth);
   SgSolverOptions o = SgSolverOptions::Budget("fast");
   o.lobes = 2;
@@ -86,8 +91,7 @@ TEST(SgSolver, ForcedLobeCountAndDeterminism) {
 // held-out error, or a smaller one within the size tolerance. Without the
 // projected line search Ceres must still keep the bounds.
 TEST(SgSolver, RestartsKeepTheBestHeldOutFitWithinBounds) {
-  ShadowPlaneModel model = TestPlaneModel(48, CosineModel::kExact);
-  model.upper_hemisphere_only = false;
+  const ShadowPlaneModel model = SgTestModel(48);
   const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, Cases()[1].truth);
   SgSolverOptions o = SgSolverOptions::Budget("fast");
   o.restarts = 3;
@@ -121,8 +125,7 @@ TEST(SgSolver, RestartsKeepTheBestHeldOutFitWithinBounds) {
 // restart fitted, here) picks: the kept fit is the best on it, or a smaller
 // one within tolerance. judge_pixels = 0 leaves the choice to the held-out set.
 TEST(SgSolver, FinishedFitsAreJudgedOnMorePixelsThanTheHeldOutSet) {
-  ShadowPlaneModel model = TestPlaneModel(64, CosineModel::kExact);
-  model.upper_hemisphere_only = false;
+  const ShadowPlaneModel model = SgTestModel(64);
   const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, Cases()[1].truth);
   SgSolverOptions o = SgSolverOptions::Budget("fast");
   o.restarts = 3;
@@ -165,8 +168,7 @@ TEST(SgSolver, FinishedFitsAreJudgedOnMorePixelsThanTheHeldOutSet) {
 // other half can stand in for, although each half lights the plane more
 // than the sun does; a bright horizon lobe the image does not hold comes last.
 TEST(SgSolver, PathOrdersLobesByBackwardElimination) {
-  ShadowPlaneModel model = TestPlaneModel(40, CosineModel::kExact);
-  model.upper_hemisphere_only = false;
+  const ShadowPlaneModel model = SgTestModel(40);
   auto dir = [](double azimuth_deg, double elevation_deg) {
     const double a = azimuth_deg * M_PI / 180, e = elevation_deg * M_PI / 180;
     return Eigen::Vector3d(std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e));
