@@ -4,7 +4,7 @@
 # nothing when everything is already installed.
 set -euo pipefail
 PKGS=(cmake ninja-build g++ pkg-config ccache
-      libeigen3-dev libopencv-dev libembree-dev libopenexr-dev libimath-dev libceres-dev
+      libeigen3-dev libopencv-dev libembree-dev libopenexr-dev libimath-dev
       nlohmann-json3-dev libcli11-dev libtinyobjloader-dev libraw-dev libapriltag-dev
       libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox colmap
       opencv-doc

@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 
+#include "calib/error.h"
 #include "solver/sg_shading.h"
 
 namespace shadowsg {
@@ -11,15 +13,27 @@ namespace shadowsg {
 RefineCost::RefineCost(const ShadowPlaneModel& model, const std::vector<double>& weight,
                        const std::vector<Eigen::Vector3f>& targets, int lobes, bool bounce_sharpness)
     : model_(model), targets_(targets), lobes_(lobes), bounce_sharpness_(bounce_sharpness) {
+  SHADOWSG_CHECK(weight.size() == model.points.size() && targets.size() == model.points.size());
   sqrt_w_.resize(weight.size());
   for (size_t k = 0; k < weight.size(); ++k) sqrt_w_[k] = std::sqrt(weight[k]);
-  set_num_residuals(static_cast<int>(3 * model.points.size()));
-  for (int i = 0; i < lobes; ++i) {
-    mutable_parameter_block_sizes()->push_back(3);
-    mutable_parameter_block_sizes()->push_back(1);
-    mutable_parameter_block_sizes()->push_back(3);
-  }
   cache_.resize(lobes);
+}
+
+std::array<Eigen::Vector3d, 2> TangentBasis(const Eigen::Vector3d& a) {
+  // The Householder reflection H with H e_z = a, as Ceres' SphereManifold
+  // builds it (ceres/internal/householder_vector.h); its first two columns.
+  const double sigma = a.head<2>().squaredNorm(), pivot = a.z();
+  Eigen::Vector3d v(a.x(), a.y(), 1.0);
+  double beta = 0;
+  if (sigma <= std::numeric_limits<double>::epsilon()) {
+    if (pivot < 0) beta = 2;
+  } else {
+    const double mu = std::sqrt(pivot * pivot + sigma);
+    const double v_pivot = pivot <= 0 ? pivot - mu : -sigma / (pivot + mu);
+    beta = 2 * v_pivot * v_pivot / (sigma + v_pivot * v_pivot);
+    v.head<2>() /= v_pivot;
+  }
+  return {Eigen::Vector3d::UnitX() - beta * v.x() * v, Eigen::Vector3d::UnitY() - beta * v.y() * v};
 }
 
 void RefineCost::SetHints(int lobe, OccluderCones::AngleHints hints) { cache_.at(lobe).hints = std::move(hints); }
@@ -97,18 +111,23 @@ void RefineCost::Update(const std::vector<Eigen::Vector3d>& axes, const std::vec
   }
 }
 
-bool RefineCost::Evaluate(double const* const* params, double* residuals, double** jacobians) const {
+void RefineCost::Evaluate(const std::vector<SgLobe>& lobes, Eigen::MatrixX3d* residuals,
+                          RefineJacobian* jacobian) const {
+  SHADOWSG_CHECK(static_cast<int>(lobes.size()) == lobes_);
   std::vector<Eigen::Vector3d> axes(lobes_);
   std::vector<double> lambda(lobes_);
-  std::vector<Eigen::Vector3d> amp(lobes_);
+  std::vector<std::array<Eigen::Vector3d, 2>> tangent(lobes_);
   for (int i = 0; i < lobes_; ++i) {
-    axes[i] = Eigen::Vector3d(params[3 * i][0], params[3 * i][1], params[3 * i][2]).normalized();
-    lambda[i] = std::exp(params[3 * i + 1][0]);
-    amp[i] = Eigen::Vector3d(params[3 * i + 2][0], params[3 * i + 2][1], params[3 * i + 2][2]);
+    axes[i] = lobes[i].axis;
+    lambda[i] = lobes[i].sharpness;
+    if (jacobian) tangent[i] = TangentBasis(axes[i]);
   }
-  const bool need_dbounce = jacobians && bounce_sharpness_ && model_.bounce;
-  Update(axes, lambda, jacobians != nullptr, need_dbounce);
-  const long np = static_cast<long>(model_.points.size());
+  const bool need_dbounce = jacobian && bounce_sharpness_ && model_.bounce;
+  Update(axes, lambda, jacobian != nullptr, need_dbounce);
+  const long np = points();
+  residuals->resize(np, 3);
+  if (jacobian)
+    for (Eigen::MatrixXd& J : jacobian->channel) J.resize(np, 4 * lobes_);
 #pragma omp parallel for schedule(static)
   for (long k = 0; k < np; ++k) {
     const Eigen::Vector3d rho = model_.albedo[k].cast<double>() / M_PI * sqrt_w_[k];
@@ -118,7 +137,7 @@ bool RefineCost::Evaluate(double const* const* params, double* residuals, double
       auto sphere_shade = [&] {
         const Eigen::Vector3d u = lc.witness[k].cast<double>();
         Eigen::Vector3d dtheta = Eigen::Vector3d::Zero();
-        if (jacobians && !u.isZero()) {
+        if (jacobian && !u.isZero()) {
           const double c = std::clamp(u.dot(axes[j]), -1.0, 1.0);
           dtheta = -u / std::max(std::sqrt(1 - c * c), 1e-9);
         }
@@ -126,31 +145,27 @@ bool RefineCost::Evaluate(double const* const* params, double* residuals, double
                          model_.cap_occlusion ? model_.occluder_cos[k] : kNoOcclusionCap);
       };
       const LobeShading s =
-          model_.exact ? model_.exact->Shade(model_.exact_table->View(k), lc.exact, jacobians != nullptr)
+          model_.exact ? model_.exact->Shade(model_.exact_table->View(k), lc.exact, jacobian != nullptr)
                        : sphere_shade();
       const Eigen::Vector3d b = model_.bounce ? Eigen::Vector3d(lc.bounce[0][k], lc.bounce[1][k], lc.bounce[2][k])
                                               : Eigen::Vector3d::Zero();
-      sum += (s.value + b.array()).matrix().cwiseProduct(amp[j]);
-      if (!jacobians) continue;
+      const Eigen::Vector3d& a = lobes[j].amplitude;
+      sum += (s.value + b.array()).matrix().cwiseProduct(a);
+      if (!jacobian) continue;
+      // The shading's gradient in mu along the tangent basis, halved: a
+      // tangent step turns the axis by half its length (sg_refine_cost.h).
+      const double d_t1 = 0.5 * tangent[j][0].dot(s.dvalue_dmu), d_t2 = 0.5 * tangent[j][1].dot(s.dvalue_dmu);
       for (int c = 0; c < 3; ++c) {
-        const long row = 3 * k + c;
-        if (double* J = jacobians[3 * j]) {
-          // Ceres passes the ambient 3-vector; our axis is its normalisation.
-          const Eigen::Vector3d v(params[3 * j][0], params[3 * j][1], params[3 * j][2]);
-          const Eigen::Vector3d g = (Eigen::Matrix3d::Identity() - axes[j] * axes[j].transpose()) *
-                                    (rho[c] * amp[j][c] * s.dvalue_dmu) / v.norm();
-          for (int d = 0; d < 3; ++d) J[row * 3 + d] = g[d];
-        }
-        if (double* J = jacobians[3 * j + 1])
-          J[row] = rho[c] * amp[j][c] * (s.dvalue_dlambda * lambda[j] + (need_dbounce ? lc.dbounce[c][k] : 0.0f));
-        if (double* J = jacobians[3 * j + 2])
-          for (int d = 0; d < 3; ++d) J[row * 3 + d] = d == c ? rho[c] * (s.value + b[c]) : 0.0;
+        Eigen::MatrixXd& J = jacobian->channel[c];
+        const double ra = rho[c] * a[c];
+        J(k, 3 * j) = ra * d_t1;
+        J(k, 3 * j + 1) = ra * d_t2;
+        J(k, 3 * j + 2) = ra * (s.dvalue_dlambda * lambda[j] + (need_dbounce ? lc.dbounce[c][k] : 0.0f));
+        J(k, 3 * lobes_ + j) = rho[c] * (s.value + b[c]);
       }
     }
-    for (int c = 0; c < 3; ++c)
-      residuals[3 * k + c] = rho[c] * sum[c] - sqrt_w_[k] * targets_[k][c];
+    for (int c = 0; c < 3; ++c) (*residuals)(k, c) = rho[c] * sum[c] - sqrt_w_[k] * targets_[k][c];
   }
-  return true;
 }
 
 }  // namespace shadowsg

@@ -1,8 +1,5 @@
 #include "solver/sg_solver.h"
 
-#include <ceres/ceres.h>
-#include <ceres/manifold.h>
-
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -14,6 +11,7 @@
 #include "solver/sg_paper_solver.h"
 #include "solver/sg_lobe_scan.h"
 #include "solver/sg_refine_cost.h"
+#include "solver/sg_refine_lm.h"
 #include "solver/nnls.h"
 #include "solver/sg_shading.h"
 
@@ -171,21 +169,6 @@ void AtomColumn(const ShadowPlaneModel& model, const Eigen::MatrixXf& theta, con
                   model.cap_occlusion ? model.occluder_cos[r] : kNoOcclusionCap).value);
 }
 
-class ProgressCallback final : public ceres::IterationCallback {
- public:
-  ProgressCallback(const ProgressFn& fn, int max_iterations) : fn_(fn), max_(max_iterations) {}
-  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
-    char status[96];
-    std::snprintf(status, sizeof(status), "refine it %d cost %.3e", s.iteration, s.cost);
-    Report(fn_, 0.5 + 0.5 * std::min(1.0, static_cast<double>(s.iteration) / std::max(1, max_)), status);
-    return ceres::SOLVER_CONTINUE;
-  }
-
- private:
-  const ProgressFn& fn_;
-  int max_;
-};
-
 template <typename T>
 std::vector<T> Gather(const std::vector<T>& v, const std::vector<size_t>& idx) {
   std::vector<T> out;
@@ -293,53 +276,24 @@ int RefineLobes(const ShadowPlaneModel& model, const std::vector<double>& weight
   if (iterations <= 0 || lighting->lobes.empty()) return 0;
   SHADOWSG_CHECK(!hints || hints->size() == lighting->lobes.size());
   const int L = static_cast<int>(lighting->lobes.size());
-  std::vector<double> params(7 * L);
-  ceres::Problem problem;
-  std::vector<double*> blocks;
-  for (int i = 0; i < L; ++i) {
-    double* p = &params[7 * i];
-    for (int d = 0; d < 3; ++d) p[d] = lighting->lobes[i].axis[d];
-    p[3] = std::log(lighting->lobes[i].sharpness);
-    for (int d = 0; d < 3; ++d) p[4 + d] = lighting->lobes[i].amplitude[d];
-    blocks.insert(blocks.end(), {p, p + 3, p + 4});
-  }
   // The bounce's sharpness column pays only under exact visibility (sg_refine_cost.h).
-  auto* cost = new RefineCost(model, weight, targets, L, model.exact != nullptr);  // owned by `problem`
+  RefineCost cost(model, weight, targets, L, model.exact != nullptr);
   if (hints)
-    for (int i = 0; i < L; ++i) cost->SetHints(i, std::move((*hints)[i]));
-  problem.AddResidualBlock(cost, nullptr, blocks);
-  for (int i = 0; i < L; ++i) {
-    problem.SetManifold(&params[7 * i], new ceres::SphereManifold<3>());
-    problem.SetParameterLowerBound(&params[7 * i + 3], 0, std::log(kMinSharpness));
-    problem.SetParameterUpperBound(&params[7 * i + 3], 0, std::log(kMaxSharpness));
-    for (int d = 0; d < 3; ++d) problem.SetParameterLowerBound(&params[7 * i + 4], d, 0.0);
-  }
-  ceres::Solver::Options so;
-  so.minimizer_type = ceres::TRUST_REGION;
-  so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
-  so.max_num_iterations = iterations;
-  so.num_threads = 1;  // the cost function is parallel inside
-  // With bounds Ceres follows each step by a projected line search whose
-  // every trial evaluates the full Jacobian: 60 % of the fast budget's time,
-  // for no systematic gain (measured over four scenes x three seeds); bounds
-  // are still kept, by projection.
-  so.max_num_line_search_step_size_iterations = 0;
-  so.logging_type = ceres::SILENT;
-  std::unique_ptr<ProgressCallback> cb;
-  if (progress) {
-    cb = std::make_unique<ProgressCallback>(*progress, iterations);
-    so.callbacks.push_back(cb.get());
-  }
-  ceres::Solver::Summary s;
-  ceres::Solve(so, &problem, &s);
+    for (int i = 0; i < L; ++i) cost.SetHints(i, std::move((*hints)[i]));
+  RefineLmOptions lo;
+  lo.max_iterations = iterations;
+  lo.min_sharpness = kMinSharpness;
+  lo.max_sharpness = kMaxSharpness;
+  std::function<void(int, double)> report;
+  if (progress)
+    report = [&](int it, double c) {
+      char status[96];
+      std::snprintf(status, sizeof(status), "refine it %d cost %.3e", it, c);
+      Report(*progress, 0.5 + 0.5 * std::min(1.0, static_cast<double>(it) / iterations), status);
+    };
+  const RefineLmSummary s = RefineByLm(cost, &lighting->lobes, lo, report);
   if (hints)
-    for (int i = 0; i < L; ++i) (*hints)[i] = cost->Hints(i);
-  for (int i = 0; i < L; ++i) {
-    const double* p = &params[7 * i];
-    lighting->lobes[i] = {Eigen::Vector3d(p[0], p[1], p[2]).normalized(), std::exp(p[3]),
-                          Eigen::Vector3d(p[4], p[5], p[6]).cwiseMax(0.0)};
-  }
+    for (int i = 0; i < L; ++i) (*hints)[i] = cost.Hints(i);
   // Lobes that light the plane by a negligible fraction even unoccluded
   // (dark, or below the horizon) are unobservable: drop them.
   double total = 0;
@@ -358,7 +312,7 @@ int RefineLobes(const ShadowPlaneModel& model, const std::vector<double>& weight
     }
   lighting->lobes = std::move(kept);
   if (hints) *hints = std::move(kept_hints);
-  return static_cast<int>(s.iterations.size());
+  return s.iterations;
 }
 
 // The per-channel least-squares system of lobe amplitudes for fixed axes and

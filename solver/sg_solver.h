@@ -16,8 +16,8 @@
 //    order of backward elimination (OrderByElimination), each model
 //    started from the previous one plus the next lobe (with the bounce:
 //    every amplitude re-solved by NNLS first) and refined by Levenberg-Marquardt
-//    (Ceres: axes on the sphere, log-sharpness, non-negative amplitudes;
-//    solver/sg_refine_cost.h; each lobe's occluder searches start from what
+//    (axes on the sphere, log-sharpness, non-negative amplitudes;
+//    solver/sg_refine_cost.h, solver/sg_refine_lm.h; each lobe's occluder searches start from what
 //    its last one learnt, OccluderCones::AngleHints, for as long as the lobe
 //    is on the path). The smallest model within `size_tolerance` of the
 //    best held-out error is kept ("no more lobes than the scene needs") and

@@ -35,40 +35,44 @@ ShadowPlaneModel ModelWithBounce(bool bounce) {
   return model;
 }
 
-// Parameter blocks of a sun and a sky lobe: axis (3), log-sharpness, amplitude (3).
-std::vector<std::vector<double>> Lobes() {
-  const Eigen::Vector3d sun = Eigen::Vector3d(0.55, -0.3, 0.78).normalized();
-  return {{sun.x(), sun.y(), sun.z()}, {std::log(300.0)}, {40, 38, 35},
-          {0.1, 0.2, 0.97},            {std::log(2.0)},   {0.4, 0.5, 0.7}};
+// A sun and a sky lobe.
+std::vector<SgLobe> Lobes() {
+  return {{Eigen::Vector3d(0.55, -0.3, 0.78).normalized(), 300.0, Eigen::Vector3d(40, 38, 35)},
+          {Eigen::Vector3d(0.1, 0.2, 0.97).normalized(), 2.0, Eigen::Vector3d(0.4, 0.5, 0.7)}};
 }
 
-// Residuals at the given blocks (Jacobians when jac is not null).
-std::vector<double> Residuals(const RefineCost& cost, const std::vector<std::vector<double>>& blocks,
-                              std::vector<std::vector<double>>* jac = nullptr) {
-  std::vector<const double*> p;
-  for (const auto& b : blocks) p.push_back(b.data());
-  std::vector<double> r(static_cast<size_t>(cost.num_residuals()));
-  std::vector<double*> j;
-  if (jac) {
-    jac->assign(blocks.size(), {});
-    for (size_t i = 0; i < blocks.size(); ++i) {
-      (*jac)[i].assign(r.size() * blocks[i].size(), 0.0);
-      j.push_back((*jac)[i].data());
-    }
-  }
-  EXPECT_TRUE(cost.Evaluate(p.data(), r.data(), jac ? j.data() : nullptr));
-  return r;
+// Residuals at `lobes`, r(k, c) at 3k + c (the Jacobian too when jac is not null).
+std::vector<double> Residuals(const RefineCost& cost, const std::vector<SgLobe>& lobes,
+                              RefineJacobian* jac = nullptr) {
+  Eigen::MatrixX3d r;
+  cost.Evaluate(lobes, &r, jac);
+  EXPECT_EQ(r.rows(), cost.points());
+  std::vector<double> out(3 * static_cast<size_t>(r.rows()));
+  for (long k = 0; k < r.rows(); ++k)
+    for (int c = 0; c < 3; ++c) out[3 * k + c] = r(k, c);
+  return out;
+}
+
+// Column `col` of the Jacobian over every residual (3k + c): geometry
+// columns move every channel, an amplitude column (col >= 3L) channel
+// `channel` only.
+std::vector<double> Column(const RefineJacobian& jac, int lobes, int col, int channel = -1) {
+  const long np = jac.channel[0].rows();
+  std::vector<double> out(3 * static_cast<size_t>(np), 0.0);
+  for (long k = 0; k < np; ++k)
+    for (int c = 0; c < 3; ++c)
+      if (col < 3 * lobes || c == channel) out[3 * k + c] = jac.channel[c](k, col);
+  return out;
 }
 
 // d r / d(log sharpness of lobe `lobe`) by central differences.
-std::vector<double> NumericSharpnessColumn(const RefineCost& cost, std::vector<std::vector<double>> blocks, int lobe) {
+std::vector<double> NumericSharpnessColumn(const RefineCost& cost, std::vector<SgLobe> lobes, int lobe) {
   constexpr double kH = 1e-3;
-  const size_t b = 3 * static_cast<size_t>(lobe) + 1;
-  const double x = blocks[b][0];
-  blocks[b][0] = x + kH;
-  const std::vector<double> up = Residuals(cost, blocks);
-  blocks[b][0] = x - kH;
-  const std::vector<double> down = Residuals(cost, blocks);
+  const double lambda = lobes[lobe].sharpness;
+  lobes[lobe].sharpness = lambda * std::exp(kH);
+  const std::vector<double> up = Residuals(cost, lobes);
+  lobes[lobe].sharpness = lambda * std::exp(-kH);
+  const std::vector<double> down = Residuals(cost, lobes);
   std::vector<double> d(up.size());
   for (size_t k = 0; k < d.size(); ++k) d[k] = (up[k] - down[k]) / (2 * kH);
   return d;
@@ -92,14 +96,14 @@ TEST(RefineCost, SharpnessColumnCarriesTheBounce) {
   const std::vector<double> weight(direct.points.size(), 1.0);
   const RefineCost direct_cost(direct, weight, targets, 2, true), bounced_cost(bounced, weight, targets, 2, true);
   const RefineCost amplitude_only(bounced, weight, targets, 2, /*bounce_sharpness=*/false);
-  const auto blocks = Lobes();
-  std::vector<std::vector<double>> jac, jac_plain;
-  Residuals(bounced_cost, blocks, &jac);
-  Residuals(amplitude_only, blocks, &jac_plain);
+  const auto lobes = Lobes();
+  RefineJacobian jac, jac_plain;
+  Residuals(bounced_cost, lobes, &jac);
+  Residuals(amplitude_only, lobes, &jac_plain);
   for (int lobe = 0; lobe < 2; ++lobe) {
-    const std::vector<double> numeric = NumericSharpnessColumn(bounced_cost, blocks, lobe);
-    const std::vector<double> without = NumericSharpnessColumn(direct_cost, blocks, lobe);
-    const std::vector<double>& analytic = jac[3 * lobe + 1];
+    const std::vector<double> numeric = NumericSharpnessColumn(bounced_cost, lobes, lobe);
+    const std::vector<double> without = NumericSharpnessColumn(direct_cost, lobes, lobe);
+    const std::vector<double> analytic = Column(jac, 2, 3 * lobe + 2);
     const double error = Distance(analytic, numeric) / Norm(numeric);
     const double bounce_share = Distance(numeric, without) / Norm(numeric);
     std::printf("lobe %d: relative error %.4f, the bounce's share of the column %.3f\n", lobe, error, bounce_share);
@@ -108,7 +112,41 @@ TEST(RefineCost, SharpnessColumnCarriesTheBounce) {
     EXPECT_GT(bounce_share, 0.005) << "lobe " << lobe;
     EXPECT_LT(error, 0.2 * bounce_share) << "lobe " << lobe;
     // Without the column the Jacobian misses the bounce's share.
-    EXPECT_GT(Distance(jac_plain[3 * lobe + 1], numeric) / Norm(numeric), 0.8 * bounce_share) << "lobe " << lobe;
+    EXPECT_GT(Distance(Column(jac_plain, 2, 3 * lobe + 2), numeric) / Norm(numeric), 0.8 * bounce_share)
+        << "lobe " << lobe;
+  }
+}
+
+// The axis columns against central differences of the direct shading (the
+// bounce has no axis column: sg_refine_cost.h); a tangent step of length h
+// turns the axis by h/2 (TangentBasis).
+TEST(RefineCost, AxisColumnsMatchDifferences) {
+  const ShadowPlaneModel direct = ModelWithBounce(false);
+  const std::vector<Eigen::Vector3f> targets(direct.points.size(), Eigen::Vector3f::Constant(0.5f));
+  const std::vector<double> weight(direct.points.size(), 1.0);
+  const RefineCost cost(direct, weight, targets, 2, false);
+  const auto lobes = Lobes();
+  RefineJacobian jac;
+  Residuals(cost, lobes, &jac);
+  constexpr double kH = 1e-4;
+  for (int lobe = 0; lobe < 2; ++lobe) {
+    const auto t = TangentBasis(lobes[lobe].axis);
+    EXPECT_NEAR(t[0].dot(lobes[lobe].axis), 0, 1e-12);
+    EXPECT_NEAR(t[1].dot(lobes[lobe].axis), 0, 1e-12);
+    EXPECT_NEAR(t[0].dot(t[1]), 0, 1e-12);
+    EXPECT_NEAR(std::abs(t[0].cross(t[1]).dot(lobes[lobe].axis)), 1, 1e-12);
+    for (int i = 0; i < 2; ++i) {
+      auto up = lobes, down = lobes;
+      up[lobe].axis = (lobes[lobe].axis + std::tan(kH / 2) * t[i]).normalized();
+      down[lobe].axis = (lobes[lobe].axis - std::tan(kH / 2) * t[i]).normalized();
+      const std::vector<double> ru = Residuals(cost, up), rd = Residuals(cost, down);
+      std::vector<double> numeric(ru.size());
+      for (size_t k = 0; k < ru.size(); ++k) numeric[k] = (ru[k] - rd[k]) / (2 * kH);
+      const double error = Distance(Column(jac, 2, 3 * lobe + i), numeric) / Norm(numeric);
+      std::printf("lobe %d tangent %d: relative error %.2e (column norm %.3g)\n", lobe, i, error, Norm(numeric));
+      EXPECT_GT(Norm(numeric), 0) << "lobe " << lobe;
+      EXPECT_LT(error, 0.02) << "lobe " << lobe << " tangent " << i;
+    }
   }
 }
 
@@ -118,17 +156,18 @@ TEST(RefineCost, AmplitudeColumnsMatchDifferences) {
   const std::vector<Eigen::Vector3f> targets(bounced.points.size(), Eigen::Vector3f::Constant(0.5f));
   const std::vector<double> weight(bounced.points.size(), 2.0);
   const RefineCost cost(bounced, weight, targets, 2, true);
-  auto blocks = Lobes();
-  std::vector<std::vector<double>> jac;
-  const std::vector<double> r0 = Residuals(cost, blocks, &jac);
+  const auto lobes = Lobes();
+  RefineJacobian jac;
+  const std::vector<double> r0 = Residuals(cost, lobes, &jac);
   for (int lobe = 0; lobe < 2; ++lobe)
     for (int c = 0; c < 3; ++c) {
-      auto moved = blocks;
-      moved[3 * lobe + 2][c] += 1.0;
+      auto moved = lobes;
+      moved[lobe].amplitude[c] += 1.0;
       const std::vector<double> r1 = Residuals(cost, moved);
+      const std::vector<double> column = Column(jac, 2, 3 * 2 + lobe, c);
       double worst = 0, scale = 0;
       for (size_t k = 0; k < r0.size(); ++k) {
-        worst = std::max(worst, std::abs((r1[k] - r0[k]) - jac[3 * lobe + 2][k * 3 + c]));
+        worst = std::max(worst, std::abs((r1[k] - r0[k]) - column[k]));
         scale = std::max(scale, std::abs(r1[k] - r0[k]));
       }
       EXPECT_GT(scale, 0) << "lobe " << lobe << " channel " << c;
@@ -147,22 +186,24 @@ TEST(RefineCost, CachedShadingMatchesAFreshCost) {
     const RefineCost reused(bounced, weight, targets, 2, exact_sharpness);
     const auto start = Lobes();
     auto sun_moved = start;
-    sun_moved[0] = {0.5, -0.35, 0.79};
+    sun_moved[0].axis = Eigen::Vector3d(0.5, -0.35, 0.79).normalized();
     auto both_moved = sun_moved;
-    both_moved[4][0] += 0.3;
+    both_moved[1].sharpness *= std::exp(0.3);
     // One lobe's shading alone may sum in another order than beside another
     // lobe's (float products): equal to rounding, not bitwise.
     auto expect_near = [](const std::vector<double>& a, const std::vector<double>& b, const char* what) {
       EXPECT_LT(Distance(a, b), 1e-5 * Norm(b)) << what;
     };
-    for (const auto& blocks : {start, sun_moved, both_moved, start, sun_moved}) {
+    for (const auto& lobes : {start, sun_moved, both_moved, start, sun_moved}) {
       const RefineCost fresh(bounced, weight, targets, 2, exact_sharpness);
-      const std::vector<double> r_fresh = Residuals(fresh, blocks);
-      expect_near(Residuals(reused, blocks), r_fresh, "residuals");
-      std::vector<std::vector<double>> j_reused, j_fresh;
-      expect_near(Residuals(reused, blocks, &j_reused), r_fresh, "residuals with Jacobians");
-      Residuals(fresh, blocks, &j_fresh);
-      for (size_t b = 0; b < j_fresh.size(); ++b) expect_near(j_reused[b], j_fresh[b], "Jacobian block");
+      const std::vector<double> r_fresh = Residuals(fresh, lobes);
+      expect_near(Residuals(reused, lobes), r_fresh, "residuals");
+      RefineJacobian j_reused, j_fresh;
+      expect_near(Residuals(reused, lobes, &j_reused), r_fresh, "residuals with Jacobians");
+      Residuals(fresh, lobes, &j_fresh);
+      for (int col = 0; col < 4 * 2; ++col)
+        for (int c = 0; c < 3; ++c)
+          expect_near(Column(j_reused, 2, col, c), Column(j_fresh, 2, col, c), "Jacobian column");
     }
   }
 }
