@@ -36,6 +36,16 @@ std::vector<Eigen::Vector3f> Render(const ShadowPlaneModel& model, const std::ve
   return out;
 }
 
+// The test plane, targets rendered from `truth`, unit weights (RefineCost
+// keeps references to all three).
+struct Problem {
+  Problem(int grid, const std::vector<SgLobe>& truth)
+      : model(TestModel(grid)), targets(Render(model, truth)), weight(model.points.size(), 1.0) {}
+  ShadowPlaneModel model;
+  std::vector<Eigen::Vector3f> targets;
+  std::vector<double> weight;
+};
+
 double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::acos(std::clamp(a.dot(b), -1.0, 1.0)) * 180 / M_PI;
 }
@@ -45,11 +55,9 @@ double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
 // 1e-12 of the error over a tenth of a degree, so the lobes themselves are
 // compared loosely.)
 TEST(RefineByLm, ReturnsToTheLobesThatMadeTheTargets) {
-  const ShadowPlaneModel model = TestModel(64);
   const std::vector<SgLobe> truth = TrueLobes();
-  const std::vector<Eigen::Vector3f> targets = Render(model, truth);
-  const std::vector<double> weight(model.points.size(), 1.0);
-  const RefineCost cost(model, weight, targets, 2, false);
+  const Problem p(64, truth);
+  const RefineCost cost(p.model, p.weight, p.targets, 2, false);
   std::vector<SgLobe> lobes = truth;
   lobes[0].axis = (truth[0].axis + std::tan(0.5 * M_PI / 180) * TangentBasis(truth[0].axis)[0]).normalized();
   RefineLmOptions o;
@@ -76,11 +84,9 @@ TEST(RefineByLm, ReturnsToTheLobesThatMadeTheTargets) {
 // every channel's amplitudes off, a few steps bring the error to rounding
 // (a wrong channel mapping of the amplitude columns cannot).
 TEST(RefineByLm, SolvesAmplitudesPerChannel) {
-  const ShadowPlaneModel model = TestModel(30);
   const std::vector<SgLobe> truth = TrueLobes();
-  const std::vector<Eigen::Vector3f> targets = Render(model, truth);
-  const std::vector<double> weight(model.points.size(), 1.0);
-  const RefineCost cost(model, weight, targets, 2, false);
+  const Problem p(30, truth);
+  const RefineCost cost(p.model, p.weight, p.targets, 2, false);
   std::vector<SgLobe> lobes = truth;
   lobes[0].amplitude = lobes[0].amplitude.cwiseProduct(Eigen::Vector3d(0.6, 1.3, 0.9));
   lobes[1].amplitude = lobes[1].amplitude.cwiseProduct(Eigen::Vector3d(1.5, 0.7, 1.2));
@@ -100,12 +106,10 @@ TEST(RefineByLm, SolvesAmplitudesPerChannel) {
 // A lobe the targets do not have is driven to zero amplitude, not below;
 // sharpness stays inside a bound below the sun's.
 TEST(RefineByLm, KeepsAmplitudesAndSharpnessInTheirBounds) {
-  const ShadowPlaneModel model = TestModel(30);
   const std::vector<SgLobe> truth = {TrueLobes()[0]};
-  const std::vector<Eigen::Vector3f> targets = Render(model, truth);
-  const std::vector<double> weight(model.points.size(), 1.0);
+  const Problem p(30, truth);
   std::vector<SgLobe> lobes = {truth[0], {Eigen::Vector3d(-0.3, 0.3, 0.9).normalized(), 1.0, Eigen::Vector3d(2, 2, 2)}};
-  const RefineCost cost(model, weight, targets, 2, false);
+  const RefineCost cost(p.model, p.weight, p.targets, 2, false);
   RefineLmOptions o;
   o.max_iterations = 40;
   o.max_sharpness = 30;  // below the sun's 40
