@@ -127,6 +127,7 @@ RefineLmSummary RefineByLm(const RefineCost& cost, std::vector<SgLobe>* lobes, c
     std::vector<SgLobe> candidate;
     if (ok) {
       candidate = Move(*lobes, step, o, &taken);
+      // The unprojected step's, as Ceres predicts it (see the header).
       predicted = -(ne.g.dot(step) + 0.5 * step.dot(ne.H * step));
       ok = predicted > 0 && std::isfinite(predicted);
     }
