@@ -36,6 +36,14 @@ std::array<Eigen::Vector3d, 2> TangentBasis(const Eigen::Vector3d& a) {
   return {Eigen::Vector3d::UnitX() - beta * v.x() * v, Eigen::Vector3d::UnitY() - beta * v.y() * v};
 }
 
+Eigen::Vector3d TurnAxis(const Eigen::Vector3d& a, double d1, double d2) {
+  const auto t = TangentBasis(a);
+  const Eigen::Vector3d d = d1 * t[0] + d2 * t[1];
+  const double length = d.norm();
+  if (!(length > 0)) return a;
+  return (std::cos(length / 2) * a + std::sin(length / 2) / length * d).normalized();
+}
+
 void RefineCost::SetHints(int lobe, OccluderCones::AngleHints hints) { cache_.at(lobe).hints = std::move(hints); }
 
 const OccluderCones::AngleHints& RefineCost::Hints(int lobe) const { return cache_.at(lobe).hints; }
@@ -153,7 +161,7 @@ void RefineCost::Evaluate(const std::vector<SgLobe>& lobes, Eigen::MatrixX3d* re
       sum += (s.value + b.array()).matrix().cwiseProduct(a);
       if (!jacobian) continue;
       // The shading's gradient in mu along the tangent basis, halved: a
-      // tangent step turns the axis by half its length (sg_refine_cost.h).
+      // tangent step turns the axis by half its length (TurnAxis).
       const double d_t1 = 0.5 * tangent[j][0].dot(s.dvalue_dmu), d_t2 = 0.5 * tangent[j][1].dot(s.dvalue_dmu);
       for (int c = 0; c < 3; ++c) {
         Eigen::MatrixXd& J = jacobian->channel[c];

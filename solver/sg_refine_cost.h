@@ -50,6 +50,10 @@ namespace shadowsg {
 // 15 lower, median -0.3 dB) than with Ceres, whose steps these reproduce.
 std::array<Eigen::Vector3d, 2> TangentBasis(const Eigen::Vector3d& a);
 
+// The unit axis a after the tangent step (d1, d2): along the great circle
+// towards d1 t1 + d2 t2, by half the step's length.
+Eigen::Vector3d TurnAxis(const Eigen::Vector3d& a, double d1, double d2);
+
 // The Jacobian of RefineCost's residuals, one block per channel c: rows are
 // points, columns 3j, 3j+1 lobe j's axis tangent steps (TangentBasis), 3j+2 its
 // log-sharpness, and 3L + j its amplitude in channel c.

@@ -74,11 +74,7 @@ std::vector<SgLobe> Move(const std::vector<SgLobe>& lobes, const Eigen::VectorXd
   const double lo = std::log(o.min_sharpness), hi = std::log(o.max_sharpness);
   for (long j = 0; j < L; ++j) {
     const SgLobe& l = lobes[j];
-    // Along the great circle, by half the step's length (TangentBasis).
-    const auto t = TangentBasis(l.axis);
-    const Eigen::Vector3d d = step[3 * j] * t[0] + step[3 * j + 1] * t[1];
-    const double angle = 0.5 * d.norm();
-    if (angle > 0) out[j].axis = (std::cos(angle) * l.axis + std::sin(angle) / d.norm() * d).normalized();
+    out[j].axis = TurnAxis(l.axis, step[3 * j], step[3 * j + 1]);
     (*taken)[3 * j] = step[3 * j];
     (*taken)[3 * j + 1] = step[3 * j + 1];
     const double log_lambda = std::log(l.sharpness);

@@ -17,9 +17,9 @@
 //    started from the previous one plus the next lobe (with the bounce:
 //    every amplitude re-solved by NNLS first) and refined by Levenberg-Marquardt
 //    (axes on the sphere, log-sharpness, non-negative amplitudes;
-//    solver/sg_refine_cost.h, solver/sg_refine_lm.h; each lobe's occluder searches start from what
-//    its last one learnt, OccluderCones::AngleHints, for as long as the lobe
-//    is on the path). The smallest model within `size_tolerance` of the
+//    solver/sg_refine_cost.h, solver/sg_refine_lm.h; each lobe's occluder
+//    searches start from what its last one learnt, OccluderCones::AngleHints,
+//    for as long as the lobe is on the path). The smallest model within `size_tolerance` of the
 //    best held-out error is kept ("no more lobes than the scene needs") and
 //    refined further. (A path from large to small was tried: worse on the
 //    closed-form three-lobe test, 34 dB against 98.)

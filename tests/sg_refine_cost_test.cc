@@ -118,8 +118,7 @@ TEST(RefineCost, SharpnessColumnCarriesTheBounce) {
 }
 
 // The axis columns against central differences of the direct shading (the
-// bounce has no axis column: sg_refine_cost.h); a tangent step of length h
-// turns the axis by h/2 (TangentBasis).
+// bounce has no axis column: sg_refine_cost.h), steps made by TurnAxis.
 TEST(RefineCost, AxisColumnsMatchDifferences) {
   const ShadowPlaneModel direct = ModelWithBounce(false);
   const std::vector<Eigen::Vector3f> targets(direct.points.size(), Eigen::Vector3f::Constant(0.5f));
@@ -137,8 +136,8 @@ TEST(RefineCost, AxisColumnsMatchDifferences) {
     EXPECT_NEAR(std::abs(t[0].cross(t[1]).dot(lobes[lobe].axis)), 1, 1e-12);
     for (int i = 0; i < 2; ++i) {
       auto up = lobes, down = lobes;
-      up[lobe].axis = (lobes[lobe].axis + std::tan(kH / 2) * t[i]).normalized();
-      down[lobe].axis = (lobes[lobe].axis - std::tan(kH / 2) * t[i]).normalized();
+      up[lobe].axis = TurnAxis(lobes[lobe].axis, i == 0 ? kH : 0, i == 1 ? kH : 0);
+      down[lobe].axis = TurnAxis(lobes[lobe].axis, i == 0 ? -kH : 0, i == 1 ? -kH : 0);
       const std::vector<double> ru = Residuals(cost, up), rd = Residuals(cost, down);
       std::vector<double> numeric(ru.size());
       for (size_t k = 0; k < ru.size(); ++k) numeric[k] = (ru[k] - rd[k]) / (2 * kH);
