@@ -90,6 +90,7 @@ class RefineCost {
     Eigen::VectorXf theta;                  // sphere-tree visibility, per point
     std::vector<Eigen::Vector3f> witness;   // and its witness direction
     OccluderCones::AngleHints hints;        // what the last search learnt, for the next (one axis)
+    OccluderCones::AngleHints ground_hints; // the same for the bounce's ground points
     std::array<Eigen::VectorXf, 3> bounce;  // per channel, per point
     std::array<Eigen::VectorXf, 3> dbounce; // d bounce / d log sharpness (empty until asked for)
   };

@@ -181,11 +181,12 @@ Eigen::MatrixXf DirectLobeShading(const ShadowPlaneModel& model, const std::vect
 }
 
 std::array<Eigen::MatrixXf, 3> BounceIrradiance(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3d>& axes,
-                                                const std::vector<double>& sharpness) {
+                                                const std::vector<double>& sharpness,
+                                                std::vector<OccluderCones::AngleHints>* ground_hints) {
   SHADOWSG_CHECK(model.bounce);
   if (!model.bounce_ground) return model.bounce->Irradiance(axes, sharpness, nullptr);
   const ShadowPlaneModel& g = *model.bounce_ground;
-  const Eigen::MatrixXf s = DirectLobeShading(g, axes, sharpness);
+  const Eigen::MatrixXf s = DirectLobeShading(g, axes, sharpness, ground_hints);
   std::array<Eigen::MatrixXf, 3> radiance;
   for (int c = 0; c < 3; ++c) {
     radiance[c] = s;

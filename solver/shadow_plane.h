@@ -108,8 +108,11 @@ Eigen::MatrixXf DirectLobeShading(const ShadowPlaneModel& model, const std::vect
 
 // Per channel, the irradiance per unit amplitude of each lobe at the casters'
 // patches (patches x lobes), the plane's second bounce included.
+// ground_hints (one per lobe, optional, in and out): DirectLobeShading's
+// lobe_hints for the bounce's ground points.
 std::array<Eigen::MatrixXf, 3> BounceIrradiance(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3d>& axes,
-                                                const std::vector<double>& sharpness);
+                                                const std::vector<double>& sharpness,
+                                                std::vector<OccluderCones::AngleHints>* ground_hints = nullptr);
 
 // The bounce's shading of each lobe at the model's points (points x lobes),
 // per unit amplitude and unit plane albedo/pi, averaged over the channels,
