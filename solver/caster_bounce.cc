@@ -1,5 +1,6 @@
 #include "solver/caster_bounce.h"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -273,6 +274,31 @@ Eigen::MatrixXf CasterBounce::FormFactors(const std::vector<Eigen::Vector3d>& po
           up > 0 && facing > 0 ? static_cast<float>(up * facing / d2 * p.area / (d2 + p.area / M_PI)) : 0.0f;
     }
   return k;
+}
+
+FactoredFormFactors FactorFormFactors(Eigen::MatrixXf k, double tolerance) {
+  SHADOWSG_CHECK(tolerance >= 0);
+  FactoredFormFactors f;
+  const long m = k.cols();
+  if (k.rows() <= m || m == 0) {
+    f.left = std::move(k);
+    return f;
+  }
+  const Eigen::MatrixXd gram = (k.transpose() * k).cast<double>();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(gram);
+  // Eigenvalues ascending: the residual of a rank-r basis holds the smallest m - r.
+  const Eigen::VectorXd ev = eig.eigenvalues().cwiseMax(0.0);
+  const double budget = tolerance * tolerance * ev.sum();
+  long dropped = 0;
+  for (double tail = 0; dropped < m && tail + ev[dropped] <= budget; ++dropped) tail += ev[dropped];
+  const long rank = m - dropped;
+  if (rank > m / 2) {  // two products of rank r cost as much as one of m at r = m / 2
+    f.left = std::move(k);
+    return f;
+  }
+  f.basis = eig.eigenvectors().rightCols(rank).transpose().cast<float>();
+  f.left = k * f.basis.transpose();
+  return f;
 }
 
 std::vector<Eigen::Vector3f> CasterBounce::Gather(const std::vector<Eigen::Vector3d>& points,

@@ -59,6 +59,7 @@ bool SgSolverOptions::IsValid(std::string* error) const {
   if (!(size_tolerance >= 0)) return fail("size_tolerance must be >= 0");
   if (refine_iterations < 0) return fail("refine_iterations must be >= 0");
   if (restarts < 1) return fail("restarts must be >= 1");
+  if (!(bounce_form_tolerance >= 0 && bounce_form_tolerance < 1)) return fail("bounce_form_tolerance must be in [0, 1)");
   return true;
 }
 
@@ -177,16 +178,16 @@ std::vector<T> Gather(const std::vector<T>& v, const std::vector<size_t>& idx) {
   return out;
 }
 
-// The model restricted to some points, with their cone tables prepared: the
-// fit renders these points many times.
-ShadowPlaneModel Subset(const ShadowPlaneModel& model, const std::vector<size_t>& idx) {
+// The model restricted to some points, with their cone tables and bounce
+// form factors prepared: the fit renders these points many times.
+ShadowPlaneModel Subset(const ShadowPlaneModel& model, const std::vector<size_t>& idx, double form_tolerance) {
   ShadowPlaneModel sub = model;
   sub.points = Gather(model.points, idx);
   sub.albedo = Gather(model.albedo, idx);
   if (!model.occluder_cos.empty()) sub.occluder_cos = Gather(model.occluder_cos, idx);
   if (model.exact) sub.PrepareExactTable();  // the fit shades with these, not the cones
   else sub.PrepareCones();
-  sub.PrepareBounceForm();
+  sub.PrepareBounceForm(form_tolerance);
   return sub;
 }
 
@@ -372,7 +373,7 @@ ShadowPlaneModel WithoutBounce(const ShadowPlaneModel& model) {
   ShadowPlaneModel m = model;
   m.bounce.reset();
   m.bounce_ground.reset();
-  m.bounce_form.resize(0, 0);
+  m.bounce_form = {};
   return m;
 }
 
@@ -395,7 +396,7 @@ FitData PrepareFit(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   const size_t nf = sets.fit.size();
   // theta for every (pixel, dictionary axis) once.
   auto t0 = Clock::now();
-  d.model = Subset(model, sets.fit);
+  d.model = Subset(model, sets.fit, o.bounce_form_tolerance);
   d.direct = WithoutBounce(d.model);
   d.targets = Gather(targets, sets.fit);
   d.weight = sets.weight;
@@ -723,7 +724,8 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   const size_t nv = model.bounce && o.choose_bounce ? 2 : 1;
   // Fit v has the bounce unless it is the direct-only one of two.
   auto has_bounce = [&](size_t v) { return model.bounce != nullptr && v + 1 == nv; };
-  const ShadowPlaneModel hold_model = Subset(model, ho.holdout);
+  // Held-out and judging pixels gather the lobes' sum once a render: no gain from factoring.
+  const ShadowPlaneModel hold_model = Subset(model, ho.holdout, 0);
   const std::vector<ShadowPlaneModel> hold_models = {WithoutBounce(hold_model), hold_model};
   auto hold_for = [&](size_t v) -> const ShadowPlaneModel& { return hold_models[has_bounce(v) ? 1 : 0]; };
 
@@ -804,7 +806,7 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   if (!judge.empty()) {
     const std::vector<Eigen::Vector3f> judge_targets = Gather(targets, judge);
     const bool any_bounce = model.bounce && !fits[nv - 1].empty();
-    const ShadowPlaneModel judge_model = Subset(any_bounce ? model : WithoutBounce(model), judge);
+    const ShadowPlaneModel judge_model = Subset(any_bounce ? model : WithoutBounce(model), judge, 0);
     const ShadowPlaneModel judge_direct = WithoutBounce(judge_model);
     for (size_t v = 0; v < nv; ++v)
       for (size_t r = 0; r < fits[v].size(); ++r)

@@ -79,6 +79,12 @@ struct SgSolverOptions {
   // Grid searches of the lobe with the strongest shadow after the size path
   // (solver/sg_lobe_scan.h), each kept if the held-out error falls; 0: none.
   int scan_rounds = 3;
+  // The bounce's form factors at the fit pixels, kept factored to this
+  // relative (Frobenius) error (FactorFormFactors): each lobe's bounce there
+  // (every LM evaluation, every dictionary atom) then costs the rank (about
+  // 90-110 on the development scenes) instead of 256 patches a pixel. 0:
+  // unfactored. (0.01, rank about 60: a sunrise seed fell to 36.96 dB.)
+  double bounce_form_tolerance = 0.003;
   int restarts = 1;                // fits from independent fit-pixel draws; the best held-out error wins
   // When the model has the casters' bounce: also fit without it and keep
   // whichever has the lower held-out error (up to twice the time).

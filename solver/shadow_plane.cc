@@ -116,7 +116,7 @@ void AddCasterBounce(const Scene& scene, ShadowPlaneModel* model) {
   model->bounce = std::make_shared<const CasterBounce>(meshes, albedo, casters, scene.plane.xyz, model->normal);
   ShadowPlaneModel ground = *model;
   ground.bounce.reset();
-  ground.bounce_form.resize(0, 0);
+  ground.bounce_form = {};
   ground.points = model->bounce->ground();
   ground.albedo.clear();
   for (const Eigen::Vector3d& p : ground.points) ground.albedo.push_back(PlaneAlbedo(scene.plane, p).cast<float>());
@@ -205,7 +205,9 @@ namespace {
 
 // K (radiance): the patches' radiance carried to the model's points.
 Eigen::MatrixXf GatherBounce(const ShadowPlaneModel& model, const Eigen::MatrixXf& radiance) {
-  if (model.HasBounceForm()) return model.bounce_form * radiance;
+  if (model.HasBounceForm())
+    return model.bounce_form.basis.size() ? Eigen::MatrixXf(model.bounce_form.left * (model.bounce_form.basis * radiance))
+                                          : Eigen::MatrixXf(model.bounce_form.left * radiance);
   return model.bounce->FormFactors(model.points) * radiance;
 }
 
@@ -267,7 +269,7 @@ std::vector<Eigen::Vector3f> RenderBounce(const ShadowPlaneModel& model, const S
     for (long j = 0; j < radiance.rows(); ++j) radiance(j, c) *= model.bounce->patches()[j].albedo_over_pi[c];
   }
   if (model.HasBounceForm()) {
-    const Eigen::MatrixXf b = model.bounce_form * radiance;
+    const Eigen::MatrixXf b = GatherBounce(model, radiance);
     for (size_t k = 0; k < out.size(); ++k) out[k] = b.row(static_cast<long>(k)).transpose();
   } else {
     out = model.bounce->Gather(model.points, radiance);

@@ -45,9 +45,10 @@ struct ShadowPlaneModel {
 
   // Light the casters reflect onto the plane (solver/caster_bounce.h), added
   // to whichever visibility shades the direct light; bounce_form, when it
-  // holds `points`, saves recomputing their form factors.
+  // holds `points`, saves recomputing their form factors (factored:
+  // FactorFormFactors).
   std::shared_ptr<const CasterBounce> bounce;
-  Eigen::MatrixXf bounce_form;
+  FactoredFormFactors bounce_form;
   // The bounce's ground points as a model of their own (same visibility,
   // cones or exact table prepared): their direct light feeds the second bounce.
   std::shared_ptr<const ShadowPlaneModel> bounce_ground;
@@ -55,8 +56,13 @@ struct ShadowPlaneModel {
   bool HasCones() const { return cones.size() == points.size() && !points.empty(); }
   void PrepareCones() { cones = OccluderCones(occluders, points, search); }
   bool HasExactTable() const { return exact && exact_table && exact_table->size() == points.size(); }
-  bool HasBounceForm() const { return bounce && bounce_form.rows() == static_cast<long>(points.size()) && !points.empty(); }
-  void PrepareBounceForm() { if (bounce) bounce_form = bounce->FormFactors(points); }
+  bool HasBounceForm() const {
+    return bounce && bounce_form.left.rows() == static_cast<long>(points.size()) && !points.empty();
+  }
+  // tolerance: FactorFormFactors's (0: K exactly, unfactored).
+  void PrepareBounceForm(double tolerance = 0) {
+    if (bounce) bounce_form = FactorFormFactors(bounce->FormFactors(points), tolerance);
+  }
   void PrepareExactTable() { exact_table = std::make_shared<const OccludedTable>(exact->Tabulate(points)); }
 };
 

@@ -97,6 +97,60 @@ TEST(CasterBounce, FirstBounceOffASphereMatchesBruteForce) {
   }
 }
 
+// The plane points a solver gathers the bounce at: a grid around the sphere's
+// foot, some of them right beside it, where the form factors peak.
+std::vector<Eigen::Vector3d> GroundGrid(int n, double half) {
+  std::vector<Eigen::Vector3d> points;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const Eigen::Vector3d x(-half + 2 * half * (i + 0.5) / n, -half + 2 * half * (j + 0.5) / n, 0);
+      if (x.norm() > 0.1) points.push_back(x);
+    }
+  return points;
+}
+
+TEST(CasterBounce, FactoredFormFactorsStayWithinTheirTolerance) {
+  const SphereOnPlane s;
+  const CasterBounce bounce({s.mesh}, {Eigen::Vector3d::Constant(SphereOnPlane::kAlbedo)}, s.casters,
+                            Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ());
+  const Eigen::MatrixXf k = bounce.FormFactors(GroundGrid(60, 3.0));
+  const long m = k.cols();
+  ASSERT_GT(k.rows(), 3 * m);
+  // No tolerance: K itself.
+  const FactoredFormFactors exact = FactorFormFactors(k, 0);
+  EXPECT_EQ(exact.basis.size(), 0);
+  EXPECT_EQ(exact.rank(), m);
+  EXPECT_TRUE(exact.left.isApprox(k));
+  // Fewer points than patches, or a tolerance that needs more than half the
+  // patches (here 0.003): nothing to gain.
+  EXPECT_EQ(FactorFormFactors(k.topRows(m / 2), 0.01).basis.size(), 0);
+  EXPECT_EQ(FactorFormFactors(k, 0.003).basis.size(), 0);
+
+  // What the solver gathers: a sun's and a sky's bounce, per unit amplitude.
+  const std::array<Eigen::MatrixXf, 3> e =
+      bounce.Irradiance({Eigen::Vector3d(0.6, -0.3, 0.74).normalized(), Eigen::Vector3d::UnitZ()}, {500, 1}, nullptr);
+  const Eigen::MatrixXf radiance = SphereOnPlane::kAlbedo / M_PI * e[0];
+  const Eigen::MatrixXf gathered = k * radiance;
+  long last_rank = m;
+  for (double tolerance : {0.01, 0.03, 0.1}) {
+    const FactoredFormFactors f = FactorFormFactors(k, tolerance);
+    ASSERT_GT(f.basis.size(), 0) << "tolerance " << tolerance;
+    const long r = f.rank();
+    EXPECT_LE(r, m / 2);
+    EXPECT_LE(r, last_rank);  // a looser tolerance never needs more
+    last_rank = r;
+    // The basis is orthonormal, and the residual of K is within the tolerance.
+    EXPECT_TRUE((f.basis * f.basis.transpose()).isApprox(Eigen::MatrixXf::Identity(r, r), 1e-4));
+    const double residual = (k - f.left * f.basis).norm() / k.norm();
+    EXPECT_LE(residual, tolerance * 1.01 + 1e-5) << "tolerance " << tolerance;
+    // The gathered bounce's error is of the same order (measured: 0.7-1.0x K's).
+    const double gather_error = (f.left * (f.basis * radiance) - gathered).norm() / gathered.norm();
+    std::printf("tolerance %.3f: rank %ld of %ld, K residual %.2e, gathered bounce error %.2e\n", tolerance, r, m,
+                residual, gather_error);
+    EXPECT_LE(gather_error, 1.5 * tolerance);
+  }
+}
+
 // A box and a sphere under a sun and a sky, path traced at 64 x 48 by the
 // project's renderer with `bounces` diffuse bounces.
 std::string TwoCasterSpec(int bounces) {
