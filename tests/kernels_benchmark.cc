@@ -170,6 +170,29 @@ void BM_BounceFormFactors(benchmark::State& state) {
 }
 BENCHMARK(BM_BounceFormFactors)->Arg(6000)->Unit(benchmark::kMillisecond);
 
+// Their factoring to the fit's tolerance (once per fit set).
+void BM_FactorFormFactors(benchmark::State& state) {
+  const Eigen::MatrixXf k = TorusBounce().FormFactors(PlanePoints(static_cast<int>(state.range(0))));
+  for (auto _ : state) benchmark::DoNotOptimize(FactorFormFactors(k, 0.003));
+  state.counters["rank"] = static_cast<double>(FactorFormFactors(k, 0.003).rank());
+}
+BENCHMARK(BM_FactorFormFactors)->Arg(6000)->Unit(benchmark::kMillisecond);
+
+// The gather of 16 lobes' bounce, 3 channels, to 6000 fit pixels (every LM
+// evaluation): K itself (tolerance 0) or factored (0.003).
+void BM_GatherBounce(benchmark::State& state) {
+  const FactoredFormFactors f = FactorFormFactors(TorusBounce().FormFactors(PlanePoints(6000)),
+                                                  static_cast<double>(state.range(0)) / 1000);
+  const Eigen::MatrixXf radiance = Eigen::MatrixXf::Random(static_cast<long>(TorusBounce().size()), 48).cwiseAbs();
+  for (auto _ : state) {
+    const Eigen::MatrixXf b =
+        f.basis.size() ? Eigen::MatrixXf(f.left * (f.basis * radiance)) : Eigen::MatrixXf(f.left * radiance);
+    benchmark::DoNotOptimize(b.data());
+  }
+  state.counters["rank"] = static_cast<double>(f.rank());
+}
+BENCHMARK(BM_GatherBounce)->Arg(0)->Arg(3)->Unit(benchmark::kMillisecond);
+
 }  // namespace
 }  // namespace shadowsg
 
