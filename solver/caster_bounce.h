@@ -71,6 +71,10 @@ struct CasterBounceOptions {
 struct FactoredFormFactors {
   Eigen::MatrixXf left, basis;
   long rank() const { return basis.size() ? basis.rows() : left.cols(); }
+  // K x (patches x n): what the patches' radiance gives at the points.
+  Eigen::MatrixXf Times(const Eigen::MatrixXf& x) const {
+    return basis.size() ? Eigen::MatrixXf(left * (basis * x)) : Eigen::MatrixXf(left * x);
+  }
 };
 FactoredFormFactors FactorFormFactors(Eigen::MatrixXf k, double tolerance);
 

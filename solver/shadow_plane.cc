@@ -205,9 +205,7 @@ namespace {
 
 // K (radiance): the patches' radiance carried to the model's points.
 Eigen::MatrixXf GatherBounce(const ShadowPlaneModel& model, const Eigen::MatrixXf& radiance) {
-  if (model.HasBounceForm())
-    return model.bounce_form.basis.size() ? Eigen::MatrixXf(model.bounce_form.left * (model.bounce_form.basis * radiance))
-                                          : Eigen::MatrixXf(model.bounce_form.left * radiance);
+  if (model.HasBounceForm()) return model.bounce_form.Times(radiance);
   return model.bounce->FormFactors(model.points) * radiance;
 }
 

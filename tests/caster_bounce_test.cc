@@ -144,7 +144,7 @@ TEST(CasterBounce, FactoredFormFactorsStayWithinTheirTolerance) {
     const double residual = (k - f.left * f.basis).norm() / k.norm();
     EXPECT_LE(residual, tolerance * 1.01 + 1e-5) << "tolerance " << tolerance;
     // The gathered bounce's error is of the same order (measured: 0.7-1.0x K's).
-    const double gather_error = (f.left * (f.basis * radiance) - gathered).norm() / gathered.norm();
+    const double gather_error = (f.Times(radiance) - gathered).norm() / gathered.norm();
     std::printf("tolerance %.3f: rank %ld of %ld, K residual %.2e, gathered bounce error %.2e\n", tolerance, r, m,
                 residual, gather_error);
     EXPECT_LE(gather_error, 1.5 * tolerance);
