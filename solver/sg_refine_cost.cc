@@ -108,9 +108,11 @@ void RefineCost::Update(const std::vector<Eigen::Vector3d>& axes, const std::vec
     for (int i : stale) ground_hints.push_back(std::move(cache_[i].ground_hints));
     const std::array<Eigen::MatrixXf, 3> b =
         BounceLobeShadingRgb(model_, BounceIrradiance(model_, a, l, &ground_hints));
-    for (size_t s = 0; s < stale.size(); ++s) cache_[stale[s]].ground_hints = std::move(ground_hints[s]);
-    for (size_t s = 0; s < stale.size(); ++s)
-      for (int ch = 0; ch < 3; ++ch) cache_[stale[s]].bounce[ch] = b[ch].col(static_cast<long>(s));
+    for (size_t s = 0; s < stale.size(); ++s) {
+      LobeCache& c = cache_[stale[s]];
+      c.ground_hints = std::move(ground_hints[s]);
+      for (int ch = 0; ch < 3; ++ch) c.bounce[ch] = b[ch].col(static_cast<long>(s));
+    }
   }
   if (!no_dbounce.empty()) {
     const auto [a, l] = pick(no_dbounce, kStep);
