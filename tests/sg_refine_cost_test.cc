@@ -35,6 +35,19 @@ ShadowPlaneModel ModelWithBounce(bool bounce) {
   return model;
 }
 
+// What a two-lobe RefineCost reads (it keeps references, so they live
+// here): the model, uniform targets of 0.5 and a uniform weight.
+struct CostInputs {
+  ShadowPlaneModel model;
+  std::vector<Eigen::Vector3f> targets;
+  std::vector<double> weight;
+  CostInputs(bool bounce, double w)
+      : model(ModelWithBounce(bounce)),
+        targets(model.points.size(), Eigen::Vector3f::Constant(0.5f)),
+        weight(model.points.size(), w) {}
+  RefineCost Cost(bool bounce_sharpness) const { return RefineCost(model, weight, targets, 2, bounce_sharpness); }
+};
+
 // A sun and a sky lobe.
 std::vector<SgLobe> Lobes() {
   return {{Eigen::Vector3d(0.55, -0.3, 0.78).normalized(), 300.0, Eigen::Vector3d(40, 38, 35)},
@@ -91,11 +104,9 @@ double Distance(const std::vector<double>& a, const std::vector<double>& b) {
 }
 
 TEST(RefineCost, SharpnessColumnCarriesTheBounce) {
-  const ShadowPlaneModel direct = ModelWithBounce(false), bounced = ModelWithBounce(true);
-  const std::vector<Eigen::Vector3f> targets(direct.points.size(), Eigen::Vector3f::Constant(0.5f));
-  const std::vector<double> weight(direct.points.size(), 1.0);
-  const RefineCost direct_cost(direct, weight, targets, 2, true), bounced_cost(bounced, weight, targets, 2, true);
-  const RefineCost amplitude_only(bounced, weight, targets, 2, /*bounce_sharpness=*/false);
+  const CostInputs direct(false, 1.0), bounced(true, 1.0);
+  const RefineCost direct_cost = direct.Cost(true), bounced_cost = bounced.Cost(true);
+  const RefineCost amplitude_only = bounced.Cost(/*bounce_sharpness=*/false);
   const auto lobes = Lobes();
   RefineJacobian jac, jac_plain;
   Residuals(bounced_cost, lobes, &jac);
@@ -120,10 +131,8 @@ TEST(RefineCost, SharpnessColumnCarriesTheBounce) {
 // The axis columns against central differences of the direct shading (the
 // bounce has no axis column: sg_refine_cost.h), steps made by TurnAxis.
 TEST(RefineCost, AxisColumnsMatchDifferences) {
-  const ShadowPlaneModel direct = ModelWithBounce(false);
-  const std::vector<Eigen::Vector3f> targets(direct.points.size(), Eigen::Vector3f::Constant(0.5f));
-  const std::vector<double> weight(direct.points.size(), 1.0);
-  const RefineCost cost(direct, weight, targets, 2, false);
+  const CostInputs direct(false, 1.0);
+  const RefineCost cost = direct.Cost(false);
   const auto lobes = Lobes();
   RefineJacobian jac;
   Residuals(cost, lobes, &jac);
@@ -151,10 +160,8 @@ TEST(RefineCost, AxisColumnsMatchDifferences) {
 
 // The amplitude columns are exact: the residuals are linear in them.
 TEST(RefineCost, AmplitudeColumnsMatchDifferences) {
-  const ShadowPlaneModel bounced = ModelWithBounce(true);
-  const std::vector<Eigen::Vector3f> targets(bounced.points.size(), Eigen::Vector3f::Constant(0.5f));
-  const std::vector<double> weight(bounced.points.size(), 2.0);
-  const RefineCost cost(bounced, weight, targets, 2, true);
+  const CostInputs bounced(true, 2.0);
+  const RefineCost cost = bounced.Cost(true);
   const auto lobes = Lobes();
   RefineJacobian jac;
   const std::vector<double> r0 = Residuals(cost, lobes, &jac);
@@ -179,10 +186,8 @@ TEST(RefineCost, AmplitudeColumnsMatchDifferences) {
 // gives what a fresh cost gives at each point: nothing stale is reused.
 TEST(RefineCost, CachedShadingMatchesAFreshCost) {
   for (bool exact_sharpness : {false, true}) {
-    const ShadowPlaneModel bounced = ModelWithBounce(true);
-    const std::vector<Eigen::Vector3f> targets(bounced.points.size(), Eigen::Vector3f::Constant(0.5f));
-    const std::vector<double> weight(bounced.points.size(), 1.0);
-    const RefineCost reused(bounced, weight, targets, 2, exact_sharpness);
+    const CostInputs bounced(true, 1.0);
+    const RefineCost reused = bounced.Cost(exact_sharpness);
     const auto start = Lobes();
     auto sun_moved = start;
     sun_moved[0].axis = Eigen::Vector3d(0.5, -0.35, 0.79).normalized();
@@ -194,7 +199,7 @@ TEST(RefineCost, CachedShadingMatchesAFreshCost) {
       EXPECT_LT(Distance(a, b), 1e-5 * Norm(b)) << what;
     };
     for (const auto& lobes : {start, sun_moved, both_moved, start, sun_moved}) {
-      const RefineCost fresh(bounced, weight, targets, 2, exact_sharpness);
+      const RefineCost fresh = bounced.Cost(exact_sharpness);
       const std::vector<double> r_fresh = Residuals(fresh, lobes);
       expect_near(Residuals(reused, lobes), r_fresh, "residuals");
       RefineJacobian j_reused, j_fresh;
