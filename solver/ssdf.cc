@@ -209,18 +209,46 @@ struct ConeTable {
 
 struct FlatTree {
   int levels = 0, branching = 0;
-  size_t offset = 0;      // index of the root in the flat arrays
+  size_t inner = 0;       // table index of the root (inner nodes, in the tree's order); unused when levels == 1
   size_t leaf_begin = 0;  // local index of the first leaf
+  size_t leaves = 0;      // index of the first leaf in FlatTrees::leaves
+  // Local index l to table index (inner nodes) or leaf index (l >= leaf_begin).
+  size_t Inner(size_t l) const { return inner + l; }
+  size_t Leaf(size_t l) const { return leaves + (l - leaf_begin); }
 };
 
-// The trees flattened, with the spheres each search reads: for kExact the
-// subtree bounds (leaves themselves at the last level), for kCoarseToFine the
-// nodes' own spheres.
+// The leaves' spheres, shared by every point, in blocks of kLanes as a
+// ConeTable's (centre x, y, z, radius; double, so that a cone computed from
+// them is as precise as a table's). Radius 0: an empty slot.
+struct LeafSpheres {
+  static constexpr size_t kLanes = ConeTable::kLanes;
+  std::vector<double, AlignedAllocator<double, 64>> data;
+  size_t count = 0;
+  static size_t At(size_t i, int v) { return Block(i) + v * kLanes + i % kLanes; }
+  static size_t Block(size_t i) { return (i / kLanes) * 4 * kLanes; }  // start of node i's block
+  void Push(const Eigen::Vector3d& c, double r) {
+    if (count % kLanes == 0) data.resize(data.size() + 4 * kLanes, 0.0);
+    data[At(count, 0)] = c.x();
+    data[At(count, 1)] = c.y();
+    data[At(count, 2)] = c.z();
+    data[At(count, 3)] = r;
+    ++count;
+  }
+};
+
+// The trees flattened. Inner nodes (levels above the last) get a cone per
+// point in a ConeTable: for kExact the subtree bounds, for kCoarseToFine the
+// nodes' own spheres. Leaves (the last level, the occluders themselves) are
+// not tabled: their cones are computed from LeafSpheres where a search
+// reaches them. They are seven eighths of a tree's nodes, and a table of
+// every node (9.4 KB a point, 56 MB for 6000 fit pixels) did not fit in
+// cache; the search waited on memory more than it computed.
 struct FlatTrees {
   std::vector<FlatTree> trees;
-  std::vector<Eigen::Vector3d> centre;
-  std::vector<double> radius;
-  std::vector<char> is_leaf;
+  std::vector<Eigen::Vector3d> centre;  // inner nodes, table-indexed
+  std::vector<double> radius;           // 0: empty (also the alignment slots)
+  std::vector<char> is_leaf;            // a point inside gets the leaf rule (kCoarseToFine's own spheres)
+  LeafSpheres leaves;
   bool exact = false;  // inner nodes are subtree bounds (kExact), not the nodes' own spheres
 };
 
@@ -228,19 +256,28 @@ FlatTrees Flatten(const std::vector<SphereTree>& world_trees, SsdfSearch search)
   FlatTrees f;
   for (const auto& t : world_trees) {
     if (t.nodes.empty()) continue;
-    // Empty slots before the root, so that its children (and with branching
-    // 8 every sibling group) start a ConeTable block.
-    while ((f.centre.size() + 1) % ConeTable::kLanes != 0) {
+    // Empty slots before the root and the first leaf, so that with branching
+    // 8 every sibling group starts a block (of the table, of the leaves).
+    auto pad = [&](size_t size, size_t first) { return (ConeTable::kLanes - (size + first) % ConeTable::kLanes) % ConeTable::kLanes; };
+    for (size_t k = pad(f.centre.size(), 1); k > 0; --k) {
       f.centre.push_back(Eigen::Vector3d::Zero());
       f.radius.push_back(0.0);
       f.is_leaf.push_back(0);
     }
-    FlatTree ft{t.levels, t.branching, f.centre.size(), t.LevelBegin(t.levels - 1)};
+    const size_t leaf_begin = t.LevelBegin(t.levels - 1);
+    // The first leaf group starts at local index leaf_begin (branching * k + 1 for the first leaf parent k).
+    for (size_t k = pad(f.leaves.count, 0); k > 0; --k) f.leaves.Push(Eigen::Vector3d::Zero(), 0.0);
+    FlatTree ft{t.levels, t.branching, f.centre.size(), leaf_begin, f.leaves.count};
     const std::vector<Sphere> spheres = search == SsdfSearch::kExact ? SubtreeBounds(t) : t.nodes;
     for (size_t i = 0; i < spheres.size(); ++i) {
+      const double r = spheres[i].empty() ? 0.0 : spheres[i].radius;
+      if (i >= leaf_begin) {
+        f.leaves.Push(spheres[i].centre, r);
+        continue;
+      }
       f.centre.push_back(spheres[i].centre);
-      f.radius.push_back(spheres[i].empty() ? 0.0 : spheres[i].radius);
-      f.is_leaf.push_back(i >= ft.leaf_begin || search == SsdfSearch::kCoarseToFine);
+      f.radius.push_back(r);
+      f.is_leaf.push_back(search == SsdfSearch::kCoarseToFine);
     }
     f.trees.push_back(ft);
   }
@@ -258,30 +295,65 @@ inline float UnitAngle(float ux, float uy, float uz, float vx, float vy, float v
   return dot >= 0 ? a : kPiF - a;
 }
 
+// A leaf's cone seen from x: unit direction to the centre and half-angle
+// (pi/2 when x is inside, the direction +z when x is the centre, -inf when
+// empty). Branch-free, for the vectorised search kernel.
+struct Cone {
+  float ux, uy, uz, alpha;
+};
+inline Cone LeafCone(const double* block, size_t lane, double px, double py, double pz) {
+  constexpr size_t L = LeafSpheres::kLanes;
+  const double sx = block[lane] - px, sy = block[L + lane] - py, sz = block[2 * L + lane] - pz;
+  const double r = block[3 * L + lane];
+  const double d = std::sqrt(sx * sx + sy * sy + sz * sz);
+  const double inv = d > 0 ? 1 / d : 0.0;
+  const float inside_alpha = kHalfPiF;
+  const float outside_alpha = AsinUnit(static_cast<float>(r * inv), static_cast<float>(0.5 * (d - r) * inv));
+  Cone c;
+  c.ux = static_cast<float>(sx * inv);
+  c.uy = static_cast<float>(sy * inv);
+  c.uz = d > 0 ? static_cast<float>(sz * inv) : 1.0f;
+  c.alpha = r <= 0 ? -kInfF : d <= r ? inside_alpha : outside_alpha;
+  return c;
+}
+inline Cone LeafConeAt(const LeafSpheres& l, size_t i, const double* x) {
+  return LeafCone(l.data.data() + LeafSpheres::Block(i), i % LeafSpheres::kLanes, x[0], x[1], x[2]);
+}
+
 // Seen from one point, the cones of a node's children lie inside the cap
 // around the node's direction u of half-angle max_k(angle(u, u_k) + alpha_k),
 // so that cap bounds the subtree too; it is often much narrower than the
 // cone of the enclosing sphere (for points near the object always), and it
 // is a bound even when the point is inside that sphere. Bottom-up, so each
 // level uses the tightened caps of the one below.
-void TightenBounds(const FlatTrees& f, ConeTable* t) {
+void TightenBounds(const FlatTrees& f, const double* x, const ConeTable* leaf_table, ConeTable* t) {
   for (const FlatTree& tr : f.trees) {
     for (size_t local = tr.leaf_begin; local-- > 0;) {
-      const size_t i = tr.offset + local;
+      const size_t i = tr.Inner(local);
       if (!(t->alpha(i) > -kInfF)) continue;  // empty subtree
-      const size_t first = tr.offset + local * tr.branching + 1;
+      const size_t first = local * tr.branching + 1;
       float cap = 0;
       for (int k = 0; k < tr.branching; ++k) {
         const size_t c = first + k;
-        if (!(t->alpha(c) > -kInfF)) continue;
-        cap = std::max(cap, UnitAngle(t->ux(i), t->uy(i), t->uz(i), t->ux(c), t->uy(c), t->uz(c)) + t->alpha(c));
+        const ConeTable* from = c >= tr.leaf_begin ? leaf_table : t;
+        const size_t at = c >= tr.leaf_begin ? tr.Leaf(c) : tr.Inner(c);
+        const Cone child = from ? Cone{from->ux(at), from->uy(at), from->uz(at), from->alpha(at)}
+                                : LeafConeAt(f.leaves, at, x);
+        if (!(child.alpha > -kInfF)) continue;
+        cap = std::max(cap, UnitAngle(t->ux(i), t->uy(i), t->uz(i), child.ux, child.uy, child.uz) + child.alpha);
       }
       t->alpha(i) = std::min(t->alpha(i), cap + kCapSlack);
     }
   }
 }
 
-void FillConeTable(const FlatTrees& f, const Eigen::Vector3d& x, ConeTable* t) {
+// The point's cones of the inner nodes and, with leaf_table, of the leaves.
+void FillConeTable(const FlatTrees& f, const Eigen::Vector3d& x, ConeTable* t, ConeTable* leaf_table = nullptr) {
+  if (leaf_table)
+    for (size_t i = 0; i < f.leaves.count; ++i) {
+      const Cone c = LeafConeAt(f.leaves, i, x.data());
+      leaf_table->Set(i, Eigen::Vector3f(c.ux, c.uy, c.uz), c.alpha);
+    }
   const size_t n = f.centre.size();
   for (size_t i = 0; i < n; ++i) {
     const double r = f.radius[i];
@@ -304,12 +376,22 @@ void FillConeTable(const FlatTrees& f, const Eigen::Vector3d& x, ConeTable* t) {
     }
     t->Set(i, u, alpha);
   }
-  if (f.exact) TightenBounds(f, t);
+  if (f.exact) TightenBounds(f, x.data(), leaf_table, t);
 }
 
-// theta of nodes [begin, begin + n) of the table for the unit axis m. The angle
-// is 2 asin(|u - m| / 2) (or pi minus that for u + m), which keeps float
-// precision near 0 and pi where acos(u . m) would not.
+// theta = angle(u, m) - alpha for unit u and m. The angle is 2 asin(|u - m| / 2)
+// (or pi minus that for u + m), which keeps float precision near 0 and pi
+// where acos(u . m) would not.
+inline float ConeThetaOf(float ux, float uy, float uz, float alpha, float mx, float my, float mz) {
+  const float dot = ux * mx + uy * my + uz * mz;
+  const float sgn = dot >= 0 ? -1.0f : 1.0f;
+  const float vx = ux + sgn * mx, vy = uy + sgn * my, vz = uz + sgn * mz;
+  const float h = 0.5f * std::sqrt(vx * vx + vy * vy + vz * vz);  // sin of half the angle, <= 0.7072
+  const float a = 2 * AsinUnit(h, 0.5f * (1 - h));
+  return (dot >= 0 ? a : kPiF - a) - alpha;
+}
+
+// theta of table nodes [begin, begin + n) for the unit axis m.
 template <int kFixed>
 inline void ConeThetasN(const ConeTable& t, size_t begin, int n_runtime, float mx, float my, float mz, float* out) {
   const int n = kFixed > 0 ? kFixed : n_runtime;
@@ -325,17 +407,29 @@ inline void ConeThetasN(const ConeTable& t, size_t begin, int n_runtime, float m
     return;
   }
 #pragma omp simd
+  for (int j = 0; j < n; ++j) out[j] = ConeThetaOf(ux[j], uy[j], uz[j], al[j], mx, my, mz);
+}
+
+// theta of leaves [begin, begin + n) seen from x, for the unit axis m.
+template <int kFixed>
+inline void LeafThetasN(const LeafSpheres& l, size_t begin, int n_runtime, const double* x, float mx, float my,
+                        float mz, float* out) {
+  const int n = kFixed > 0 ? kFixed : n_runtime;
+  if (kFixed == 0 && (begin % LeafSpheres::kLanes + n > LeafSpheres::kLanes)) {
+    for (int j = 0; j < n; ++j) LeafThetasN<1>(l, begin + j, 1, x, mx, my, mz, out + j);
+    return;
+  }
+  const double* block = l.data.data() + LeafSpheres::Block(begin);
+  const size_t lane0 = begin % LeafSpheres::kLanes;
+  const double px = x[0], py = x[1], pz = x[2];
+#pragma omp simd
   for (int j = 0; j < n; ++j) {
-    const float dot = ux[j] * mx + uy[j] * my + uz[j] * mz;
-    const float sgn = dot >= 0 ? -1.0f : 1.0f;
-    const float vx = ux[j] + sgn * mx, vy = uy[j] + sgn * my, vz = uz[j] + sgn * mz;
-    const float h = 0.5f * std::sqrt(vx * vx + vy * vy + vz * vz);  // sin of half the angle, <= 0.7072
-    const float a = 2 * AsinUnit(h, 0.5f * (1 - h));
-    out[j] = (dot >= 0 ? a : kPiF - a) - al[j];
+    const Cone c = LeafCone(block, lane0 + j, px, py, pz);
+    out[j] = ConeThetaOf(c.ux, c.uy, c.uz, c.alpha, mx, my, mz);
   }
 }
 
-// The kernel, compiled for AVX2/FMA too and chosen at load time (GCC function
+// The kernels, compiled for AVX2/FMA too and chosen at load time (GCC function
 // multiversioning; the default build targets plain x86-64: measured 1.2x on
 // the whole search). Branching 8, the project's and the reference's, gets a
 // fixed-width loop.
@@ -349,27 +443,65 @@ void ConeThetas(const ConeTable& t, size_t begin, int n, float mx, float my, flo
     ConeThetasN<0>(t, begin, n, mx, my, mz, out);
 }
 
-inline float ConeTheta(const ConeTable& t, size_t i, float mx, float my, float mz) {
-  float v;
-  ConeThetas(t, i, 1, mx, my, mz, &v);
-  return v;
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target_clones("avx2,fma", "default")))
+#endif
+void LeafThetas(const LeafSpheres& l, size_t begin, int n, const double* x, float mx, float my, float mz, float* out) {
+  if (n == static_cast<int>(LeafSpheres::kLanes) && begin % LeafSpheres::kLanes == 0)
+    LeafThetasN<LeafSpheres::kLanes>(l, begin, n, x, mx, my, mz, out);
+  else
+    LeafThetasN<0>(l, begin, n, x, mx, my, mz, out);
 }
+
+inline float ConeTheta(const ConeTable& t, size_t i, float mx, float my, float mz) {
+  return ConeThetaOf(t.ux(i), t.uy(i), t.uz(i), t.alpha(i), mx, my, mz);
+}
+
+inline float LeafTheta(const LeafSpheres& l, size_t i, const double* x, float mx, float my, float mz) {
+  const Cone c = LeafConeAt(l, i, x);
+  return ConeThetaOf(c.ux, c.uy, c.uz, c.alpha, mx, my, mz);
+}
+
+// What one point's searches read: the trees, the point's table of inner
+// cones, and the point itself for the leaves' cones, or a table of those
+// (leaf_table, indexed as FlatTrees::leaves): a caller that searches many
+// axes from one point at once reads them from cache; a fit's prepared points,
+// each searched for a few axes per call, compute them (FlatTrees).
+struct SearchPoint {
+  const FlatTrees& flat;
+  const ConeTable& table;
+  const double* x;
+  const ConeTable* leaf_table = nullptr;
+
+  void Leaves(size_t begin, int n, float mx, float my, float mz, float* out) const {
+    if (leaf_table) ConeThetas(*leaf_table, begin, n, mx, my, mz, out);
+    else LeafThetas(flat.leaves, begin, n, x, mx, my, mz, out);
+  }
+  float Leaf(size_t i, float mx, float my, float mz) const {
+    return leaf_table ? ConeTheta(*leaf_table, i, mx, my, mz) : LeafTheta(flat.leaves, i, x, mx, my, mz);
+  }
+  Eigen::Vector3f Direction(size_t leaf) const {
+    if (leaf_table) return Eigen::Vector3f(leaf_table->ux(leaf), leaf_table->uy(leaf), leaf_table->uz(leaf));
+    const Cone c = LeafConeAt(flat.leaves, leaf, x);
+    return Eigen::Vector3f(c.ux, c.uy, c.uz);
+  }
+};
 
 struct StackEntry {
   float bound;
   int level;
-  size_t node;  // flat index
+  size_t node;  // local index in the tree
 };
 
 // Best-first depth-first branch-and-bound over one tree; updates *best and
-// *best_leaf (flat index), and lowers *floor to a lower bound on the theta
+// *best_leaf (leaf index), and lowers *floor to a lower bound on the theta
 // of every leaf the search did not beat *best with (pruned subtrees' bounds,
 // leaves' own values). The stack holds at most B entries per level.
-void ExactTreeF(const FlatTree& tr, const ConeTable& t, float mx, float my, float mz, std::vector<StackEntry>* stack,
-                float* best_out, size_t* best_leaf_out, float* floor_out) {
+void ExactTreeF(const SearchPoint& sp, const FlatTree& tr, float mx, float my, float mz,
+                std::vector<StackEntry>* stack, float* best_out, size_t* best_leaf_out, float* floor_out) {
   if (tr.levels == 1) {
-    const float v = ConeTheta(t, tr.offset, mx, my, mz);
-    if (v < *best_out) *best_out = v, *best_leaf_out = tr.offset;
+    const float v = sp.Leaf(tr.leaves, mx, my, mz);
+    if (v < *best_out) *best_out = v, *best_leaf_out = tr.leaves;
     else *floor_out = std::min(*floor_out, v);
     return;
   }
@@ -385,8 +517,8 @@ void ExactTreeF(const FlatTree& tr, const ConeTable& t, float mx, float my, floa
   int top = 0;
   std::array<float, 64> vals;
   std::array<int, 64> order;
-  const float root = ConeTheta(t, tr.offset, mx, my, mz);
-  if (root - kBoundSlackF < best) st[top++] = {root, 0, tr.offset};
+  const float root = ConeTheta(sp.table, tr.Inner(0), mx, my, mz);
+  if (root - kBoundSlackF < best) st[top++] = {root, 0, 0};
   else floor = std::min(floor, root - kBoundSlackF);
   while (top > 0) {
     const StackEntry e = st[--top];
@@ -394,15 +526,17 @@ void ExactTreeF(const FlatTree& tr, const ConeTable& t, float mx, float my, floa
       floor = std::min(floor, e.bound - kBoundSlackF);
       continue;
     }
-    const size_t first = tr.offset + (e.node - tr.offset) * B + 1;
-    ConeThetas(t, first, B, mx, my, mz, vals.data());
+    const size_t first = e.node * B + 1;  // local
     if (e.level == leaf_parent_level) {
+      const size_t leaf = tr.Leaf(first);
+      sp.Leaves(leaf, B, mx, my, mz, vals.data());
       for (int k = 0; k < B; ++k) {
-        if (vals[k] < best) best = vals[k], best_leaf = first + k;
+        if (vals[k] < best) best = vals[k], best_leaf = leaf + k;
         else floor = std::min(floor, vals[k]);
       }
       continue;
     }
+    ConeThetas(sp.table, tr.Inner(first), B, mx, my, mz, vals.data());
     // Survivors in decreasing bound (insertion sort: at most B), so the most
     // promising child is on top of the stack.
     int m = 0;
@@ -427,24 +561,33 @@ void ExactTreeF(const FlatTree& tr, const ConeTable& t, float mx, float my, floa
   *floor_out = floor;
 }
 
-float CoarseToFineTreeF(const FlatTree& tr, const ConeTable& t, float mx, float my, float mz, size_t* argmin) {
-  *argmin = tr.offset;
-  if (tr.levels == 1) return ConeTheta(t, tr.offset, mx, my, mz);
+// kCoarseToFine on one tree; *argmin gets the leaf index of the result when it
+// is finite.
+float CoarseToFineTreeF(const SearchPoint& sp, const FlatTree& tr, float mx, float my, float mz, size_t* argmin) {
+  if (tr.levels == 1) {
+    *argmin = tr.leaves;
+    return sp.Leaf(tr.leaves, mx, my, mz);
+  }
   const int B = tr.branching;
-  std::array<size_t, kCoarseToFineKeep> frontier = {tr.offset};
+  std::array<size_t, kCoarseToFineKeep> frontier = {0};  // local indices
   int nf = 1;
   std::array<float, 64> vals;
   std::array<std::pair<float, size_t>, kCoarseToFineKeep + 1> keep;
   for (int level = 1; level < tr.levels; ++level) {
+    const bool last = level == tr.levels - 1;
     int nk = 0;
     float level_min = kInfF;
     for (int p = 0; p < nf; ++p) {
-      const size_t first = tr.offset + (frontier[p] - tr.offset) * B + 1;
-      ConeThetas(t, first, B, mx, my, mz, vals.data());
+      const size_t first = frontier[p] * B + 1;
+      if (last) sp.Leaves(tr.Leaf(first), B, mx, my, mz, vals.data());
+      else ConeThetas(sp.table, tr.Inner(first), B, mx, my, mz, vals.data());
       for (int k = 0; k < B; ++k) {
         const float v = vals[k];
         if (!(v < kInfF)) continue;
-        if (v < level_min) level_min = v, *argmin = first + k;
+        if (v < level_min) {
+          level_min = v;
+          if (last) *argmin = tr.Leaf(first + k);
+        }
         // Insertion into the sorted best-k list; ties keep the earlier node, as a stable sort would.
         int pos = nk;
         while (pos > 0 && keep[pos - 1].first > v) {
@@ -456,7 +599,7 @@ float CoarseToFineTreeF(const FlatTree& tr, const ConeTable& t, float mx, float 
       }
     }
     if (nk == 0) return kInfF;
-    if (level == tr.levels - 1) return level_min;
+    if (last) return level_min;
     nf = nk;
     for (int i = 0; i < nk; ++i) frontier[i] = keep[i].second;
   }
@@ -562,12 +705,13 @@ namespace {
 // theta (and the witness direction) of every axis for one point's cone table.
 // hint_leaf, hint_floor (optional, in and out, one per axis) and drift (the
 // angle each axis moved since the hints were made): OccluderCones::AngleHints.
-void PointAngles(const FlatTrees& flat, const ConeTable& table, const std::vector<Eigen::Vector3f>& unit,
-                 const std::vector<int>& order, SsdfSearch search, const std::vector<float>* caps,
-                 std::vector<StackEntry>* stack, float* out_row, long out_stride, Eigen::Vector3f* witness_row,
-                 uint32_t* hint_leaf = nullptr, float* hint_floor = nullptr, const float* drift = nullptr) {
+void PointAngles(const SearchPoint& sp, const std::vector<Eigen::Vector3f>& unit, const std::vector<int>& order,
+                 SsdfSearch search, const std::vector<float>* caps, std::vector<StackEntry>* stack, float* out_row,
+                 long out_stride, Eigen::Vector3f* witness_row, uint32_t* hint_leaf = nullptr,
+                 float* hint_floor = nullptr, const float* drift = nullptr) {
   constexpr size_t kNone = std::numeric_limits<size_t>::max();
-  size_t warm = flat.trees[0].offset + flat.trees[0].leaf_begin;
+  const FlatTrees& flat = sp.flat;
+  size_t warm = flat.trees[0].leaves;  // leaf indices from here on
   for (int a : order) {
     const float mx = unit[a].x(), my = unit[a].y(), mz = unit[a].z();
     float best;
@@ -591,14 +735,14 @@ void PointAngles(const FlatTrees& flat, const ConeTable& table, const std::vecto
       // best leaf or the caller's hint, whichever is lowest: each prunes the
       // descent, and each is a real leaf's theta, so the minimum is the same.
       argmin = kNone;
-      const float warm_value = ConeTheta(table, warm, mx, my, mz);
+      const float warm_value = sp.Leaf(warm, mx, my, mz);
       if (warm_value < best) best = warm_value, argmin = warm;
-      if (hint_leaf && hint_leaf[a] != OccluderCones::kNoLeaf && hint_leaf[a] < table.nodes) {
-        const float hint_value = ConeTheta(table, hint_leaf[a], mx, my, mz);
+      if (hint_leaf && hint_leaf[a] != OccluderCones::kNoLeaf && hint_leaf[a] < flat.leaves.count) {
+        const float hint_value = sp.Leaf(hint_leaf[a], mx, my, mz);
         if (hint_value < best) best = hint_value, argmin = hint_leaf[a];
       }
       float floor = kInfF;
-      for (const FlatTree& tr : flat.trees) ExactTreeF(tr, table, mx, my, mz, stack, &best, &argmin, &floor);
+      for (const FlatTree& tr : flat.trees) ExactTreeF(sp, tr, mx, my, mz, stack, &best, &argmin, &floor);
       if (argmin != kNone) warm = argmin;
       if (hint_leaf) {
         hint_leaf[a] = argmin == kNone ? OccluderCones::kNoLeaf : static_cast<uint32_t>(argmin);
@@ -608,34 +752,23 @@ void PointAngles(const FlatTrees& flat, const ConeTable& table, const std::vecto
       best = kInfF;
       for (const FlatTree& tr : flat.trees) {
         size_t leaf;
-        const float v = CoarseToFineTreeF(tr, table, mx, my, mz, &leaf);
+        const float v = CoarseToFineTreeF(sp, tr, mx, my, mz, &leaf);
         if (v < best) best = v, argmin = leaf;
       }
     }
     out_row[a * out_stride] = best;
-    if (witness_row)
-      witness_row[a] = argmin == kNone ? Eigen::Vector3f::Zero()
-                                       : Eigen::Vector3f(table.ux(argmin), table.uy(argmin), table.uz(argmin));
+    if (witness_row) {
+      witness_row[a] = Eigen::Vector3f::Zero();
+      if (argmin != kNone) witness_row[a] = sp.Direction(argmin);
+    }
   }
 }
 
-// Asks for the blocks a point's searches are sure to read first: its trees'
-// roots and their children, the first leaf (PointAngles' first warm start)
-// and the leaves its hints name. Called one point ahead: the tables of a fit
-// set do not fit in cache, and a search otherwise waited on each of these.
-void PrefetchSearch(const FlatTrees& flat, const ConeTable& t, const uint32_t* hint_leaf, int na) {
-  auto block = [&](size_t node) {
-    const float* b = t.data.data() + ConeTable::At(node, 0);
-    __builtin_prefetch(b);
-    __builtin_prefetch(b + 2 * ConeTable::kLanes);  // the block's second cache line
-  };
-  for (const FlatTree& tr : flat.trees) {
-    block(tr.offset);
-    block(tr.offset + 1);
-  }
-  block(flat.trees[0].offset + flat.trees[0].leaf_begin);
-  for (int a = 0; hint_leaf && a < na; ++a)
-    if (hint_leaf[a] != OccluderCones::kNoLeaf && hint_leaf[a] < t.nodes) block(hint_leaf[a]);
+// Asks for a point's whole table (1.3 KB with one tree of 4 levels),
+// one point ahead: the tables of a fit set outgrow the caches.
+void PrefetchTable(const ConeTable& t) {
+  constexpr size_t kLineFloats = 64 / sizeof(float);
+  for (size_t i = 0; i < t.data.size(); i += kLineFloats) __builtin_prefetch(t.data.data() + i);
 }
 
 std::vector<Eigen::Vector3f> UnitAxes(const std::vector<Eigen::Vector3d>& axes) {
@@ -670,14 +803,15 @@ void SignedAnglesWithWitness(const std::vector<SphereTree>& world_trees, const s
   constexpr long kChunk = 32;
 #pragma omp parallel
   {
-    ConeTable table;
+    ConeTable table, leaf_table;
     table.Resize(flat.centre.size());
+    leaf_table.Resize(flat.leaves.count);
     std::vector<StackEntry> stack;
     stack.reserve(1024);
 #pragma omp for schedule(dynamic, kChunk)
     for (long p = 0; p < np; ++p) {
-      FillConeTable(flat, points[p], &table);
-      PointAngles(flat, table, unit, order, search, caps, &stack, &(*out)(p, 0), out->rows(),
+      FillConeTable(flat, points[p], &table, &leaf_table);
+      PointAngles({flat, table, points[p].data(), &leaf_table}, unit, order, search, caps, &stack, &(*out)(p, 0), out->rows(),
                   witness ? &(*witness)[static_cast<size_t>(p) * na] : nullptr);
     }
   }
@@ -686,6 +820,7 @@ void SignedAnglesWithWitness(const std::vector<SphereTree>& world_trees, const s
 struct OccluderCones::Impl {
   FlatTrees flat;
   SsdfSearch search = SsdfSearch::kExact;
+  std::vector<Eigen::Vector3d> points;
   std::vector<ConeTable> tables;  // one per point
 };
 
@@ -695,6 +830,7 @@ OccluderCones::OccluderCones(const std::vector<SphereTree>& world_trees, const s
   CheckTrees(world_trees);
   for (const auto& t : world_trees) SHADOWSG_CHECK(t.nodes.empty() || t.branching <= 64);
   impl_->search = search;
+  impl_->points = points;
   impl_->flat = Flatten(world_trees, search);
   if (impl_->flat.trees.empty()) {
     impl_->tables.resize(points.size());
@@ -745,10 +881,9 @@ void OccluderCones::Angles(const std::vector<Eigen::Vector3d>& axes, Eigen::Matr
     stack.reserve(1024);
 #pragma omp for schedule(dynamic, 32)
     for (long p = 0; p < np; ++p) {
-      if (p + 1 < np)
-        PrefetchSearch(impl_->flat, impl_->tables[p + 1],
-                       hints ? &hints->leaf[static_cast<size_t>(p + 1) * na] : nullptr, na);
-      PointAngles(impl_->flat, impl_->tables[p], unit, order, impl_->search, caps, &stack, &(*out)(p, 0), out->rows(),
+      if (p + 1 < np) PrefetchTable(impl_->tables[p + 1]);
+      PointAngles({impl_->flat, impl_->tables[p], impl_->points[p].data()}, unit, order, impl_->search, caps, &stack,
+                  &(*out)(p, 0), out->rows(),
                   witness ? &(*witness)[static_cast<size_t>(p) * na] : nullptr,
                   hints ? &hints->leaf[static_cast<size_t>(p) * na] : nullptr,
                   hints ? &hints->floor[static_cast<size_t>(p) * na] : nullptr, drift.data());
