@@ -72,9 +72,12 @@ struct FactoredFormFactors {
   Eigen::MatrixXf left, basis;
   long rank() const { return basis.size() ? basis.rows() : left.cols(); }
   // K x (patches x n): what the patches' radiance gives at the points.
-  Eigen::MatrixXf Times(const Eigen::MatrixXf& x) const {
-    return basis.size() ? Eigen::MatrixXf(left * (basis * x)) : Eigen::MatrixXf(left * x);
-  }
+  Eigen::MatrixXf Times(const Eigen::MatrixXf& x) const { return Expand(Reduce(x)); }
+  // Times in two halves: the radiance in the basis (rank x n), then at the
+  // points. Sums of reduced columns expand to the sum of their products: a
+  // caller that needs only a weighted sum of many lobes' bounce expands that.
+  Eigen::MatrixXf Reduce(const Eigen::MatrixXf& x) const { return basis.size() ? Eigen::MatrixXf(basis * x) : x; }
+  Eigen::MatrixXf Expand(const Eigen::MatrixXf& y) const { return left * y; }
 };
 FactoredFormFactors FactorFormFactors(Eigen::MatrixXf k, double tolerance);
 

@@ -26,7 +26,10 @@
 // What a lobe costs to shade (its visibility angles or exact lobe, its
 // cosine integral, its bounce) is kept per lobe while its axis and sharpness
 // stay the same: the Jacobian after an accepted step reuses the step's
-// evaluation (a lobe held still would be shaded once).
+// evaluation (a lobe held still would be shaded once). Where the model's
+// form factors are prepared, a residual-only evaluation carries the lobes'
+// bounce to the points as one amplitude-weighted sum, and each lobe's own
+// bounce there waits for a Jacobian.
 #pragma once
 
 #include <Eigen/Dense>
@@ -91,7 +94,13 @@ class RefineCost {
     std::vector<Eigen::Vector3f> witness;   // and its witness direction
     OccluderCones::AngleHints hints;        // what the last search learnt, for the next (one axis)
     OccluderCones::AngleHints ground_hints; // the same for the bounce's ground points
-    std::array<Eigen::VectorXf, 3> bounce;  // per channel, per point
+    // The bounce per channel: the patches' radiance in the form factors'
+    // basis (FactoredFormFactors::Reduce), and at the points (per point;
+    // empty until a Jacobian asks for it: a residual needs only the
+    // amplitude-weighted sum over the lobes, expanded once, and most
+    // evaluations are of candidate steps, half of them refused).
+    std::array<Eigen::VectorXf, 3> reduced;
+    std::array<Eigen::VectorXf, 3> bounce;
     std::array<Eigen::VectorXf, 3> dbounce; // d bounce / d log sharpness (empty until asked for)
   };
   // Brings cache_ up to date for these parameters (called from one thread;

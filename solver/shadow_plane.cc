@@ -237,15 +237,20 @@ Eigen::MatrixXd LobeShadingColumns::Weighted(const ShadowPlaneModel& model, cons
   return row_scale.asDiagonal() * (bounce[c].size() ? Eigen::MatrixXf(direct + bounce[c]) : direct).cast<double>();
 }
 
-std::array<Eigen::MatrixXf, 3> BounceLobeShadingRgb(const ShadowPlaneModel& model,
-                                                    const std::array<Eigen::MatrixXf, 3>& irradiance) {
+Eigen::MatrixXf BouncePatchRadianceRgb(const ShadowPlaneModel& model, const std::array<Eigen::MatrixXf, 3>& irradiance) {
   SHADOWSG_CHECK(model.bounce);
   const long m = irradiance[0].rows(), nl = irradiance[0].cols();
   Eigen::MatrixXf radiance(m, 3 * nl);  // one product for the three channels
   for (int c = 0; c < 3; ++c)
     for (long j = 0; j < m; ++j)
       radiance.block(j, c * nl, 1, nl) = model.bounce->patches()[j].albedo_over_pi[c] * irradiance[c].row(j);
-  const Eigen::MatrixXf all = GatherBounce(model, radiance);
+  return radiance;
+}
+
+std::array<Eigen::MatrixXf, 3> BounceLobeShadingRgb(const ShadowPlaneModel& model,
+                                                    const std::array<Eigen::MatrixXf, 3>& irradiance) {
+  const long nl = irradiance[0].cols();
+  const Eigen::MatrixXf all = GatherBounce(model, BouncePatchRadianceRgb(model, irradiance));
   return {all.leftCols(nl), all.middleCols(nl, nl), all.rightCols(nl)};
 }
 

@@ -126,6 +126,9 @@ std::array<Eigen::MatrixXf, 3> BounceIrradiance(const ShadowPlaneModel& model, c
 Eigen::MatrixXf BounceLobeShading(const ShadowPlaneModel& model, const std::array<Eigen::MatrixXf, 3>& irradiance);
 std::array<Eigen::MatrixXf, 3> BounceLobeShadingRgb(const ShadowPlaneModel& model,
                                                     const std::array<Eigen::MatrixXf, 3>& irradiance);
+// What BounceLobeShadingRgb gathers: the patches' radiance per unit amplitude
+// (patches x 3 lobes; channel c's lobes in columns [c lobes, (c + 1) lobes)).
+Eigen::MatrixXf BouncePatchRadianceRgb(const ShadowPlaneModel& model, const std::array<Eigen::MatrixXf, 3>& irradiance);
 
 // Each lobe's shading at the model's points, per unit amplitude and unit
 // albedo/pi: direct light, and per channel the casters' bounce when the model

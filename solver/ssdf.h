@@ -74,7 +74,9 @@ void SignedAnglesWithWitness(const std::vector<SphereTree>& world_trees, const s
 // The cone tables of a fixed set of points, computed once: the occluders seen
 // from a plane point never change while the lighting is fitted, so solvers
 // that evaluate theta for new axes many times over the same points keep one
-// of these (about 16 bytes per point and tree node). Copies share the tables.
+// of these (16 bytes per point and inner tree node, 1.3 KB a point for one
+// tree of 4 levels of 8; the leaves' cones are computed where a search
+// reaches them). Copies share the tables.
 class OccluderCones {
  public:
   OccluderCones() = default;

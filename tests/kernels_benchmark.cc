@@ -3,6 +3,7 @@
 //   build/tests/shadowsg_kernels_benchmark --benchmark_min_time=0.5
 #include <benchmark/benchmark.h>
 
+#include <memory>
 #include <random>
 
 #include "solver/caster_bounce.h"
@@ -97,9 +98,13 @@ void BM_RenderShadowPlane(benchmark::State& state) {
 }
 BENCHMARK(BM_RenderShadowPlane)->Args({65536, 8})->Unit(benchmark::kMillisecond);
 
+const CasterBounce& TorusBounce();
+
 // One path solve of the refinement: 8 Levenberg-Marquardt steps of L lobes
 // over the fit pixels (6000 in the presets), from lobes turned 0.02 rad and
-// dimmed 10 % off those that made the targets; cone tables prepared once.
+// dimmed 10 % off those that made the targets; cone tables prepared once;
+// with the third argument 1, the torus's bounce too, its form factors
+// factored as the fit pixels' are (tolerance 0.003).
 void BM_RefineByLm(benchmark::State& state) {
   ShadowPlaneModel model;
   model.points = PlanePoints(static_cast<int>(state.range(0)));
@@ -109,6 +114,11 @@ void BM_RefineByLm(benchmark::State& state) {
   model.cosine = CosineModel::kExact;
   model.cap_occlusion = true;
   model.occluder_cos = OccluderConeCosines(model.occluders, model.points);
+  if (state.range(2)) {
+    model.normal = Eigen::Vector3d::UnitZ();
+    model.bounce = std::shared_ptr<const CasterBounce>(&TorusBounce(), [](const CasterBounce*) {});
+    model.PrepareBounceForm(0.003);
+  }
   SgLighting truth;
   for (const auto& a : Axes(static_cast<int>(state.range(1)))) truth.lobes.push_back({a, 60.0, Eigen::Vector3d::Ones()});
   const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, truth);
@@ -126,7 +136,12 @@ void BM_RefineByLm(benchmark::State& state) {
   }
   state.counters["steps"] = benchmark::Counter(steps, benchmark::Counter::kAvgIterations);
 }
-BENCHMARK(BM_RefineByLm)->Args({6000, 8})->Args({6000, 16})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_RefineByLm)
+    ->Args({6000, 8, 0})
+    ->Args({6000, 16, 0})
+    ->Args({6000, 8, 1})
+    ->Args({6000, 16, 1})
+    ->Unit(benchmark::kMillisecond);
 
 // The exact quadrature and the bounce's table, over a sweep of sharpness.
 template <class Integral>

@@ -36,15 +36,19 @@ ShadowPlaneModel ModelWithBounce(bool bounce) {
 }
 
 // What a two-lobe RefineCost reads (it keeps references, so they live
-// here): the model, uniform targets of 0.5 and a uniform weight.
+// here): the model, uniform targets of 0.5 and a uniform weight. With
+// form_tolerance >= 0 the bounce's form factors are prepared (factored at
+// that tolerance), as the solver's fit pixels have them.
 struct CostInputs {
   ShadowPlaneModel model;
   std::vector<Eigen::Vector3f> targets;
   std::vector<double> weight;
-  CostInputs(bool bounce, double w)
+  CostInputs(bool bounce, double w, double form_tolerance = -1)
       : model(ModelWithBounce(bounce)),
         targets(model.points.size(), Eigen::Vector3f::Constant(0.5f)),
-        weight(model.points.size(), w) {}
+        weight(model.points.size(), w) {
+    if (form_tolerance >= 0) model.PrepareBounceForm(form_tolerance);
+  }
   RefineCost Cost(bool bounce_sharpness) const { return RefineCost(model, weight, targets, 2, bounce_sharpness); }
 };
 
@@ -184,9 +188,20 @@ TEST(RefineCost, AmplitudeColumnsMatchDifferences) {
 // One cost evaluated along a path of parameters (one lobe moved, both,
 // back, the sharpness derivative asked for after a residual-only call)
 // gives what a fresh cost gives at each point: nothing stale is reused.
+// With the form factors prepared, residual-only calls sum the lobes' bounce
+// before carrying it to the points, and Jacobian calls carry each lobe's:
+// the two agree (and factored form factors too).
 TEST(RefineCost, CachedShadingMatchesAFreshCost) {
-  for (bool exact_sharpness : {false, true}) {
-    const CostInputs bounced(true, 1.0);
+  for (const auto& [exact_sharpness, form_tolerance] :
+       std::vector<std::pair<bool, double>>{{false, -1}, {true, -1}, {false, 0}, {true, 0.1}, {false, 0.1}}) {
+    SCOPED_TRACE(std::to_string(exact_sharpness) + " form tolerance " + std::to_string(form_tolerance));
+    const CostInputs bounced(true, 1.0, form_tolerance);
+    if (form_tolerance >= 0) {
+      ASSERT_TRUE(bounced.model.HasBounceForm());
+    }
+    if (form_tolerance > 0) {
+      ASSERT_LT(bounced.model.bounce_form.rank(), 64);
+    }
     const RefineCost reused = bounced.Cost(exact_sharpness);
     const auto start = Lobes();
     auto sun_moved = start;

@@ -87,6 +87,35 @@ TEST(SgSolver, ForcedLobeCountAndDeterminism) {
   for (size_t i = 0; i < a.lobes.size(); ++i) EXPECT_EQ(a.lobes[i].axis, b.lobes[i].axis);
 }
 
+// From path_pairs_from lobes on, each size path step takes two merged lobes:
+// the path over the same lobes has about half the steps past that point,
+// and still ends at max_lobes at most.
+TEST(SgSolver, PathPairsTakeTwoLobesAStep) {
+  const ShadowPlaneModel model = SgTestModel(48);
+  const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, Cases()[1].truth);
+  SgSolverOptions o = SgSolverOptions::Budget("fast");
+  o.choose_bounce = false;
+  o.patience = 100;  // walk the whole path
+  o.max_lobes = 7;
+  o.scan_rounds = 0;
+  o.path_pairs_from = 0;
+  SgSolverSummary singles, pairs;
+  SolveSg(model, targets, o, &singles);
+  o.path_pairs_from = 1;
+  const SgLighting est = SolveSg(model, targets, o, &pairs);
+  // Singles: one step a lobe (fewer where the refinement dropped one, or
+  // the merged lobes ran out). Pairs: sizes 1, 3, 5, 7 at most.
+  ASSERT_GE(singles.heldout_mse.size(), 5u);
+  EXPECT_LE(pairs.heldout_mse.size(), 4u);
+  EXPECT_LT(pairs.heldout_mse.size(), singles.heldout_mse.size());
+  EXPECT_LE(est.lobes.size(), 7u);
+  EXPECT_EQ(singles.heldout_mse[0], pairs.heldout_mse[0]);  // the first step is the same one lobe
+  o.path_pairs_from = -1;
+  std::string error;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("path_pairs_from"), std::string::npos);
+}
+
 // Restarts share one held-out set: the kept fit is the one with the lowest
 // held-out error, or a smaller one within the size tolerance; the
 // refinement keeps the bounds.
