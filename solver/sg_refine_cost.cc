@@ -170,9 +170,7 @@ void RefineCost::Evaluate(const std::vector<SgLobe>& lobes, Eigen::MatrixX3d* re
     for (Eigen::MatrixXd& J : jacobian->channel) J.resize(np, 4 * lobes_);
   // Form factors prepared: the lobes' bounce summed in the basis and carried
   // to the points once (see the header), for every evaluation's residuals,
-  // with or without the Jacobian: LM compares costs across both kinds, and
-  // two ways of rounding the sum differ by more than its function tolerance
-  // (mixed, pub_torus_sunrise fast stalled at 3 lobes on 3 seeds of 10).
+  // with or without the Jacobian, so that LM compares costs rounded one way.
   const bool summed = model_.bounce && model_.HasBounceForm();
   Eigen::MatrixXf bounce_sum;
   if (summed) {

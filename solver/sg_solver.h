@@ -76,12 +76,13 @@ struct SgSolverOptions {
   double improvement = 0.01;       // a held-out drop smaller than this (relative) is no progress
   int patience = 3;                // stop the size path after this many steps without progress
   int path_refine_iterations = 8;  // LM iterations after each lobe added on the path
-  // From this many lobes on, each path step adds the next two merged lobes
-  // (0: always one). A step's refinement costs about its lobe count, and the
-  // size chosen past this point moves the error little: on the development
-  // scenes (fast, 10 seeds) 6 took 27 % off pub_torus_sunrise (16 lobes at
-  // most) and 16 % off the interior at medians within 0.07 dB. The price: a
-  // model past 6 lobes may hold one lobe more than the smallest within tolerance.
+  // Once the path has taken this many merged lobes, each step takes the next
+  // two (0: always one). A step's refinement costs about its lobe count, and
+  // the size chosen past this point moves the error little: on the
+  // development scenes (fast, 10 seeds) 6 took 18 % off pub_torus_sunrise (16
+  // lobes at most) and 5 % off the interior, at medians within 0.07 dB. The
+  // price: a model past 6 lobes may hold one lobe more than the smallest
+  // within tolerance.
   int path_pairs_from = 6;
   int refine_iterations = 25;      // final LM iterations of the chosen model (0: none)
   // Grid searches of the lobe with the strongest shadow after the size path

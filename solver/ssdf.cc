@@ -257,15 +257,16 @@ FlatTrees Flatten(const std::vector<SphereTree>& world_trees, SsdfSearch search)
   for (const auto& t : world_trees) {
     if (t.nodes.empty()) continue;
     // Empty slots before the root and the first leaf, so that with branching
-    // 8 every sibling group starts a block (of the table, of the leaves).
-    auto pad = [&](size_t size, size_t first) { return (ConeTable::kLanes - (size + first) % ConeTable::kLanes) % ConeTable::kLanes; };
+    // 8 every sibling group starts a block (of the table, of the leaves): the
+    // root's children (table index root + 1) and the first leaf group.
+    constexpr size_t kLanes = ConeTable::kLanes;
+    auto pad = [](size_t size, size_t first) { return (kLanes - (size + first) % kLanes) % kLanes; };
     for (size_t k = pad(f.centre.size(), 1); k > 0; --k) {
       f.centre.push_back(Eigen::Vector3d::Zero());
       f.radius.push_back(0.0);
       f.is_leaf.push_back(0);
     }
     const size_t leaf_begin = t.LevelBegin(t.levels - 1);
-    // The first leaf group starts at local index leaf_begin (branching * k + 1 for the first leaf parent k).
     for (size_t k = pad(f.leaves.count, 0); k > 0; --k) f.leaves.Push(Eigen::Vector3d::Zero(), 0.0);
     FlatTree ft{t.levels, t.branching, f.centre.size(), leaf_begin, f.leaves.count};
     const std::vector<Sphere> spheres = search == SsdfSearch::kExact ? SubtreeBounds(t) : t.nodes;
