@@ -1,6 +1,7 @@
 // Helpers for tests: a fresh temporary folder per test.
 #pragma once
 
+#include <algorithm>
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -13,8 +14,12 @@ class TempDir {
  public:
   TempDir() {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = std::filesystem::temp_directory_path() /
-            ("shadowsg_" + std::string(info->test_suite_name()) + "_" + info->name() + "_" + std::to_string(getpid()));
+    // Parameterised tests' names hold '/' ("Signals/Interrupt", ".../0"): one
+    // folder name, so that removing it leaves no parents behind.
+    std::string name = "shadowsg_" + std::string(info->test_suite_name()) + "_" + info->name() + "_" +
+                       std::to_string(getpid());
+    std::replace(name.begin(), name.end(), '/', '_');
+    path_ = std::filesystem::temp_directory_path() / name;
     std::filesystem::remove_all(path_);
     std::filesystem::create_directories(path_);
   }

@@ -20,14 +20,21 @@ inline std::string AsString(const uint8_t* data, size_t size) {
   return std::string(reinterpret_cast<const char*>(data), size);
 }
 
-// A per-process scratch folder for parsers that read files by path.
+// A per-process scratch folder for parsers that read files by path, removed
+// when the process exits normally (libFuzzer's runs end in exit()); a crash
+// leaves it beside its finding.
 inline std::filesystem::path ScratchDir() {
-  static const std::filesystem::path dir = [] {
-    auto d = std::filesystem::temp_directory_path() / ("shadowsg_fuzz_" + std::to_string(getpid()));
-    std::filesystem::create_directories(d);
-    return d;
-  }();
-  return dir;
+  struct Scratch {
+    std::filesystem::path path =
+        std::filesystem::temp_directory_path() / ("shadowsg_fuzz_" + std::to_string(getpid()));
+    Scratch() { std::filesystem::create_directories(path); }
+    ~Scratch() {
+      std::error_code ec;  // nothing to report to at exit
+      std::filesystem::remove_all(path, ec);
+    }
+  };
+  static const Scratch dir;
+  return dir.path;
 }
 
 inline std::filesystem::path WriteScratch(const std::string& name, const uint8_t* data, size_t size) {
