@@ -184,16 +184,19 @@ struct AlignedAllocator {
 // four values share it. With one array per value (the former layout) each
 // read touched four lines; the tables of a fit set (~56 MB for 6000 points)
 // do not fit in cache, and those misses were the search's largest cost.
+// The block layout, shared by ConeTable and LeafSpheres: four values a node,
+// kLanes nodes a block, each value's lanes side by side.
+constexpr size_t kLanes = 8;
+// Start of node i's block, and the index of its value v (0-3).
+constexpr size_t BlockStart(size_t i) { return (i / kLanes) * 4 * kLanes; }
+constexpr size_t BlockAt(size_t i, int v) { return BlockStart(i) + v * kLanes + i % kLanes; }
+
 struct ConeTable {
-  static constexpr size_t kLanes = 8;
+  static constexpr size_t kLanes = shadowsg::kLanes;
   std::vector<float, AlignedAllocator<float, 128>> data;
-  size_t nodes = 0;
-  void Resize(size_t n) {
-    nodes = n;
-    data.assign((n + kLanes - 1) / kLanes * 4 * kLanes, 0.0f);
-  }
+  void Resize(size_t n) { data.assign((n + kLanes - 1) / kLanes * 4 * kLanes, 0.0f); }
   // Index of value `v` (0: ux, 1: uy, 2: uz, 3: alpha) of node i.
-  static size_t At(size_t i, int v) { return (i / kLanes) * 4 * kLanes + v * kLanes + i % kLanes; }
+  static size_t At(size_t i, int v) { return BlockAt(i, v); }
   float ux(size_t i) const { return data[At(i, 0)]; }
   float uy(size_t i) const { return data[At(i, 1)]; }
   float uz(size_t i) const { return data[At(i, 2)]; }
@@ -221,11 +224,11 @@ struct FlatTree {
 // ConeTable's (centre x, y, z, radius; double, so that a cone computed from
 // them is as precise as a table's). Radius 0: an empty slot.
 struct LeafSpheres {
-  static constexpr size_t kLanes = ConeTable::kLanes;
+  static constexpr size_t kLanes = shadowsg::kLanes;
   std::vector<double, AlignedAllocator<double, 64>> data;
   size_t count = 0;
-  static size_t At(size_t i, int v) { return Block(i) + v * kLanes + i % kLanes; }
-  static size_t Block(size_t i) { return (i / kLanes) * 4 * kLanes; }  // start of node i's block
+  static size_t At(size_t i, int v) { return BlockAt(i, v); }
+  static size_t Block(size_t i) { return BlockStart(i); }
   void Push(const Eigen::Vector3d& c, double r) {
     if (count % kLanes == 0) data.resize(data.size() + 4 * kLanes, 0.0);
     data[At(count, 0)] = c.x();
@@ -259,7 +262,6 @@ FlatTrees Flatten(const std::vector<SphereTree>& world_trees, SsdfSearch search)
     // Empty slots before the root and the first leaf, so that with branching
     // 8 every sibling group starts a block (of the table, of the leaves): the
     // root's children (table index root + 1) and the first leaf group.
-    constexpr size_t kLanes = ConeTable::kLanes;
     auto pad = [](size_t size, size_t first) { return (kLanes - (size + first) % kLanes) % kLanes; };
     for (size_t k = pad(f.centre.size(), 1); k > 0; --k) {
       f.centre.push_back(Eigen::Vector3d::Zero());
