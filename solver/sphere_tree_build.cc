@@ -185,10 +185,14 @@ std::vector<Sphere> AssignAndShrink(const Points& pts, const std::vector<Candida
   for (int pass = 0; pass < kHandOverPasses; ++pass)
     for (int j = 0; j < k; ++j) {
       auto& reg = regions[j];
-      std::sort(reg.begin(), reg.end(), [&](int a, int b) {
-        const double da = (pts[a] - picks[j].centre).squaredNorm(), db = (pts[b] - picks[j].centre).squaredNorm();
-        return da != db ? da > db : a < b;
-      });
+      // Farthest first, on distances computed once: a comparator that
+      // recomputes them may round one point two ways (FMA contraction differs
+      // between inlined copies), which breaks std::sort's ordering contract.
+      std::vector<std::pair<double, int>> by_distance;
+      by_distance.reserve(reg.size());
+      for (int p : reg) by_distance.emplace_back(-(pts[p] - picks[j].centre).squaredNorm(), p);
+      std::sort(by_distance.begin(), by_distance.end());
+      for (size_t i = 0; i < reg.size(); ++i) reg[i] = by_distance[i].second;
       size_t kept = 0;
       for (; kept < reg.size(); ++kept) {
         const int p = reg[kept];
