@@ -109,8 +109,12 @@ SgLighting SolveSgPaper(const ShadowPlaneModel& model, const std::vector<Eigen::
         db[ch] = M_PI * sign * grad(i, 4 + ch);
       }
       grad_b[i] = db;
+      // Fixed-size segments, not the comma initializer: with AVX, GCC 12
+      // warns (falsely) that its packet path reads past db.
       Eigen::Matrix<double, kParamsPerLobe, 1> g;
-      g << dv, ds, db;
+      g.segment<3>(0) = dv;
+      g[3] = ds;
+      g.segment<3>(4) = db;
       ++adam_t[i];
       m1[i] = kAdamBeta1 * m1[i] + (1 - kAdamBeta1) * g;
       m2[i] = kAdamBeta2 * m2[i] + (1 - kAdamBeta2) * g.cwiseProduct(g);

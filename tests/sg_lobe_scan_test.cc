@@ -4,6 +4,7 @@
 
 #include "sg_test_scene.h"
 #include "solver/sg_lobe_scan.h"
+#include "solver/sg_shading.h"
 #include "solver/shadow_plane.h"
 
 namespace shadowsg {
@@ -44,13 +45,25 @@ TEST(LobeScan, MovesAMisplacedSunOntoItsShadow) {
   ASSERT_TRUE(r.moved);
   EXPECT_NEAR(r.elevation_shift_deg, -5, 1e-9);
   EXPECT_NEAR(r.azimuth_shift_deg, -2, 1e-9);
-  EXPECT_EQ(r.sharpness_factor, 2);
   EXPECT_LT(r.error_after, 1e-4 * r.error_before);
   ASSERT_EQ(start.lobes.size(), 2u);
   const SgLobe& moved = start.lobes.back();  // the scanned lobe goes last
   EXPECT_LT(AngleDeg(moved.axis, sun), 1e-6);
-  EXPECT_NEAR(moved.sharpness, 200, 1e-9);
-  for (int c = 0; c < 3; ++c) EXPECT_NEAR(moved.amplitude[c], SunAndSky(sun, 200).lobes[1].amplitude[c], 0.05);
+  // On this plane the sun's shadow is hard at sharpness 50, 100 and 200
+  // alike: the three columns are proportional, and with the amplitudes
+  // re-solved all three fit to rounding (1e-15 of the signal). Which of them
+  // the scan takes is rounding's choice (it differs between instruction
+  // sets); the light on the plane is what it must get right.
+  const SgLobe truth = SunAndSky(sun, 200).lobes[1];
+  auto unoccluded = [&](const SgLobe& l) {
+    return EvalProductLobe(l.axis, l.sharpness, model.normal, model.cosine, false).scale * l.amplitude.sum();
+  };
+  EXPECT_NEAR(unoccluded(moved) / unoccluded(truth), 1.0, 1e-4);
+  const std::vector<Eigen::Vector3f> render = RenderShadowPlane(model, start);
+  double se = 0, ss = 0;
+  for (size_t k = 0; k < render.size(); ++k)
+    se += (render[k] - targets[k]).squaredNorm(), ss += targets[k].squaredNorm();
+  EXPECT_LT(se, 1e-8 * ss);
 }
 
 // At the right place nothing moves, and a scene of broad lobes alone has no
