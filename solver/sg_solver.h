@@ -57,8 +57,6 @@ struct SgSolverOptions {
   int lobes = 0;          // > 0: exactly this many lobes (no model-size selection)
   int max_lobes = 32;     // longest selection path
   int dictionary_axes = 300;
-  // The dictionary fit (step 3) runs on this many of the fit pixels (0: all).
-  int dictionary_pixels = 0;
   std::vector<double> sharpness = {0.5, 1.5, 4, 10, 25, 60, 150, 400};
   // The dense normal equations of the refinement cost fit_pixels x (7 lobes)^2
   // per iteration. (8192 / 3072 / 120 atoms was tried in a single fit with
