@@ -14,6 +14,7 @@
 #include "solver/sg_refine_lm.h"
 #include "solver/nnls.h"
 #include "solver/sg_shading.h"
+#include "solver/sort_by_key.h"
 
 namespace shadowsg {
 
@@ -227,14 +228,7 @@ double SharpnessFromResultant(double r) {
 // between their axes is below `overlap` times the wider one's width
 // (1/sqrt(lambda)). Power and first moment (vMF resultant) are kept.
 std::vector<SgLobe> MergeLobes(std::vector<SgLobe> lobes, double overlap) {
-  // Brightest first, each power computed once (as in the sphere tree's
-  // AssignAndShrink: a key recomputed per comparison may round two ways).
-  std::vector<std::pair<double, size_t>> by_power;
-  for (size_t i = 0; i < lobes.size(); ++i) by_power.emplace_back(-Power(lobes[i]), i);
-  std::sort(by_power.begin(), by_power.end());  // ties: input order
-  std::vector<SgLobe> sorted;
-  for (const auto& [power, i] : by_power) sorted.push_back(lobes[i]);
-  lobes = std::move(sorted);
+  SortByKey(&lobes, [](const SgLobe& l) { return -Power(l); });  // brightest first
   std::vector<std::vector<SgLobe>> groups;
   for (const SgLobe& l : lobes) {
     bool placed = false;

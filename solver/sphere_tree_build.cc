@@ -15,6 +15,7 @@
 #include "solver/point_kdtree.h"
 #include "solver/ray_caster.h"
 #include "solver/sampling.h"
+#include "solver/sort_by_key.h"
 #include "solver/surface_samples.h"
 
 namespace shadowsg {
@@ -185,14 +186,8 @@ std::vector<Sphere> AssignAndShrink(const Points& pts, const std::vector<Candida
   for (int pass = 0; pass < kHandOverPasses; ++pass)
     for (int j = 0; j < k; ++j) {
       auto& reg = regions[j];
-      // Farthest first, on distances computed once: a comparator that
-      // recomputes them may round one point two ways (FMA contraction differs
-      // between inlined copies), which breaks std::sort's ordering contract.
-      std::vector<std::pair<double, int>> by_distance;
-      by_distance.reserve(reg.size());
-      for (int p : reg) by_distance.emplace_back(-(pts[p] - picks[j].centre).squaredNorm(), p);
-      std::sort(by_distance.begin(), by_distance.end());
-      for (size_t i = 0; i < reg.size(); ++i) reg[i] = by_distance[i].second;
+      // Farthest first; ties by point index, so the order does not depend on the last pass's.
+      SortByKey(&reg, [&](int p) { return std::make_pair(-(pts[p] - picks[j].centre).squaredNorm(), p); });
       size_t kept = 0;
       for (; kept < reg.size(); ++kept) {
         const int p = reg[kept];
