@@ -364,6 +364,55 @@ void ResolveAmplitudes(const ShadowPlaneModel& model, const std::vector<double>&
   }
 }
 
+// The reverse order of backward elimination (OrderByElimination) on the
+// system of all the lobes: indices, the lobe kept last first.
+std::vector<long> EliminationOrder(const LobeNormalEquations& eq) {
+  const long n = eq.atb[0].size();
+  // Fit error of a subset, amplitudes by NNLS per channel; `active` (if not
+  // null) gets whether each member is lit (> 0) in some channel.
+  auto subset_error = [&](const std::vector<long>& set, std::vector<char>* active) {
+    const long m = static_cast<long>(set.size());
+    if (active) active->assign(m, 0);
+    double e = 0;
+    for (int c = 0; c < 3; ++c) {
+      Eigen::MatrixXd h(m, m);
+      Eigen::VectorXd f(m);
+      for (long i = 0; i < m; ++i) {
+        f[i] = eq.atb[c][set[i]];
+        for (long j = 0; j < m; ++j) h(i, j) = eq.gram[c](set[i], set[j]);
+      }
+      const Eigen::VectorXd x = SolveNnls(h, f);
+      e += eq.btb[c] - 2 * x.dot(f) + x.dot(h * x);
+      if (active)
+        for (long i = 0; i < m; ++i) (*active)[i] |= x[i] > 0;
+    }
+    return e;
+  };
+  // Each round drops the member whose removal raises the error least. One at
+  // zero amplitude in every channel raises it by nothing: it goes at once
+  // (first in input order), without the other members' solves.
+  std::vector<long> set(n);
+  std::iota(set.begin(), set.end(), 0);
+  std::vector<long> dropped;
+  while (!set.empty()) {
+    std::vector<char> active;
+    subset_error(set, &active);
+    long drop = std::find(active.begin(), active.end(), 0) - active.begin();
+    if (drop == static_cast<long>(set.size())) {
+      double least = std::numeric_limits<double>::infinity();
+      for (size_t t = 0; t < set.size(); ++t) {
+        std::vector<long> rest = set;
+        rest.erase(rest.begin() + static_cast<long>(t));
+        const double e = subset_error(rest, nullptr);
+        if (e < least) least = e, drop = static_cast<long>(t);
+      }
+    }
+    dropped.push_back(set[drop]);
+    set.erase(set.begin() + drop);
+  }
+  return std::vector<long>(dropped.rbegin(), dropped.rend());
+}
+
 struct FitResult {
   SgLighting lighting;
   SgSolverSummary sum;
@@ -638,60 +687,97 @@ FitResult FinishFit(FitRun&& run, double signal, const SgSolverOptions& o) {
   return r;
 }
 
+// The finished fits of one model pooled (PoolLobes), as one more fit.
+FitResult PoolFits(const ShadowPlaneModel& pool_model, const std::vector<double>& weight,
+                   const std::vector<Eigen::Vector3f>& targets, const std::vector<FitResult>& fits,
+                   const ShadowPlaneModel& hold_model, const std::vector<Eigen::Vector3f>& hold_targets,
+                   const SgSolverOptions& o) {
+  std::vector<SgLighting> lightings;
+  for (const FitResult& f : fits) lightings.push_back(f.lighting);
+  FitResult r;
+  r.sum = fits[0].sum;
+  r.sum.theta_seconds = r.sum.select_seconds = r.sum.refine_seconds = 0;  // the restarts' own are counted
+  r.sum.scan_moves = 0;
+  r.sum.refine_iterations = 0;
+  r.lighting = PoolLobes(pool_model, weight, targets, lightings, hold_model, hold_targets, o, &r.sum.heldout_mse);
+  r.sum.fit_mse_selected = r.sum.fit_mse_refined = WeightedMse(pool_model, r.lighting, weight, targets);
+  r.sum.lobes_kept = static_cast<int>(r.lighting.lobes.size());
+  r.heldout_mse = r.lighting.lobes.empty() ? std::numeric_limits<double>::infinity()
+                                           : WeightedMse(hold_model, r.lighting, {}, hold_targets);
+  return r;
+}
+
 }  // namespace
 
 std::vector<SgLobe> OrderByElimination(const ShadowPlaneModel& model, const std::vector<double>& weight,
                                        const std::vector<Eigen::Vector3f>& targets, const std::vector<SgLobe>& lobes) {
   SHADOWSG_CHECK(weight.size() == model.points.size() && targets.size() == model.points.size());
-  const long n = static_cast<long>(lobes.size());
-  if (n < 2) return lobes;
-  // Every subset's NNLS works on the one system of all the lobes.
-  const LobeNormalEquations eq = BuildLobeNormalEquations(model, weight, targets, lobes);
-  // Fit error of a subset, amplitudes by NNLS per channel; `active` (if not
-  // null) gets whether each member is lit (> 0) in some channel.
-  auto subset_error = [&](const std::vector<long>& set, std::vector<char>* active) {
-    const long m = static_cast<long>(set.size());
-    if (active) active->assign(m, 0);
-    double e = 0;
-    for (int c = 0; c < 3; ++c) {
-      Eigen::MatrixXd h(m, m);
-      Eigen::VectorXd f(m);
-      for (long i = 0; i < m; ++i) {
-        f[i] = eq.atb[c][set[i]];
-        for (long j = 0; j < m; ++j) h(i, j) = eq.gram[c](set[i], set[j]);
-      }
-      const Eigen::VectorXd x = SolveNnls(h, f);
-      e += eq.btb[c] - 2 * x.dot(f) + x.dot(h * x);
-      if (active)
-        for (long i = 0; i < m; ++i) (*active)[i] |= x[i] > 0;
-    }
-    return e;
-  };
-  // Each round drops the member whose removal raises the error least. One at
-  // zero amplitude in every channel raises it by nothing: it goes at once
-  // (first in input order), without the other members' solves.
-  std::vector<long> set(n);
-  std::iota(set.begin(), set.end(), 0);
-  std::vector<long> dropped;
-  while (!set.empty()) {
-    std::vector<char> active;
-    subset_error(set, &active);
-    long drop = std::find(active.begin(), active.end(), 0) - active.begin();
-    if (drop == static_cast<long>(set.size())) {
-      double least = std::numeric_limits<double>::infinity();
-      for (size_t t = 0; t < set.size(); ++t) {
-        std::vector<long> rest = set;
-        rest.erase(rest.begin() + static_cast<long>(t));
-        const double e = subset_error(rest, nullptr);
-        if (e < least) least = e, drop = static_cast<long>(t);
-      }
-    }
-    dropped.push_back(set[drop]);
-    set.erase(set.begin() + drop);
+  if (lobes.size() < 2) return lobes;
+  std::vector<SgLobe> ordered;
+  for (long i : EliminationOrder(BuildLobeNormalEquations(model, weight, targets, lobes))) ordered.push_back(lobes[i]);
+  return ordered;
+}
+
+SgLighting PoolLobes(const ShadowPlaneModel& model, const std::vector<double>& weight,
+                     const std::vector<Eigen::Vector3f>& targets, const std::vector<SgLighting>& fits,
+                     const ShadowPlaneModel& hold_model, const std::vector<Eigen::Vector3f>& hold_targets,
+                     const SgSolverOptions& o, std::vector<double>* heldout_path) {
+  SHADOWSG_CHECK(weight.size() == model.points.size() && targets.size() == model.points.size());
+  SHADOWSG_CHECK(hold_targets.size() == hold_model.points.size());
+  SgLighting pooled;
+  if (!fits.empty()) pooled.up = fits[0].up;
+  std::vector<SgLobe> lobes;
+  for (const SgLighting& f : fits) lobes.insert(lobes.end(), f.lobes.begin(), f.lobes.end());
+  if (heldout_path) heldout_path->clear();
+  if (lobes.empty()) return pooled;
+  // One system of all the lobes serves the elimination and every leading set.
+  LobeNormalEquations eq = BuildLobeNormalEquations(model, weight, targets, lobes);
+  const std::vector<long> order = EliminationOrder(eq);
+  for (int c = 0; c < 3; ++c) {
+    eq.gram[c] = Eigen::MatrixXd(eq.gram[c](order, order));
+    eq.atb[c] = Eigen::VectorXd(eq.atb[c](order));
   }
   std::vector<SgLobe> ordered;
-  for (auto it = dropped.rbegin(); it != dropped.rend(); ++it) ordered.push_back(lobes[*it]);
-  return ordered;
+  for (long i : order) ordered.push_back(lobes[i]);
+  lobes = std::move(ordered);
+  const long n = static_cast<long>(lobes.size());
+  // Amplitudes of the first k lobes, per channel.
+  auto amplitudes = [&](long k) {
+    std::array<Eigen::VectorXd, 3> x;
+    for (int c = 0; c < 3; ++c) x[c] = SolveNnls(eq.gram[c].topLeftCorner(k, k), eq.atb[c].head(k));
+    return x;
+  };
+  long k = std::min<long>(n, o.lobes);
+  if (o.lobes == 0) {
+    // The held-out error of each leading set from the held-out pixels' own
+    // system (the render is linear in the amplitudes): one batch of shading
+    // columns instead of a render a set.
+    const LobeNormalEquations hold =
+        BuildLobeNormalEquations(hold_model, std::vector<double>(hold_model.points.size(), 1.0), hold_targets, lobes);
+    const double count = 3.0 * std::max<size_t>(1, hold_targets.size());
+    double signal = 0;
+    for (int c = 0; c < 3; ++c) signal += hold.btb[c] / count;
+    std::vector<double> path;
+    for (long m = 1; m <= n; ++m) {
+      const std::array<Eigen::VectorXd, 3> x = amplitudes(m);
+      double se = 0;
+      for (int c = 0; c < 3; ++c)
+        se += hold.btb[c] - 2 * x[c].dot(hold.atb[c].head(m)) + x[c].dot(hold.gram[c].topLeftCorner(m, m) * x[c]);
+      path.push_back(std::max(0.0, se) / count);
+    }
+    const double best = *std::min_element(path.begin(), path.end());
+    k = 1;
+    while (path[k - 1] > best * (1 + o.size_tolerance) + kSizeNoiseFloor * signal) ++k;
+    if (heldout_path) *heldout_path = std::move(path);
+  }
+  const std::array<Eigen::VectorXd, 3> x = amplitudes(k);
+  for (long i = 0; i < k; ++i) {
+    SgLobe b = lobes[i];
+    b.amplitude = Eigen::Vector3d(x[0][i], x[1][i], x[2][i]);
+    if (b.amplitude.maxCoeff() > 0) pooled.lobes.push_back(b);  // lobes left at zero go
+  }
+  RemoveInvalidLobes(&pooled);
+  return pooled;
 }
 
 bool BounceRaceDrops(size_t steps, size_t other_steps, double best, double other_best, bool paths_ended) {
@@ -746,9 +832,13 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   std::vector<double> best_seen(nv, std::numeric_limits<double>::infinity());  // per model, over restarts
   const int runs = o.restarts * static_cast<int>(nv);
   std::vector<char> fitted(model.points.size(), 0);  // in some restart's fit set
+  std::vector<size_t> pool_idx;  // every restart's fit pixels, and their weights
+  std::vector<double> pool_weight;
   for (int r = 0; r < o.restarts; ++r) {
     const FitSet set = SampleFit(model, targets, ho.rest, o, rng);
     for (size_t i : set.fit) fitted[i] = 1;
+    pool_idx.insert(pool_idx.end(), set.fit.begin(), set.fit.end());
+    pool_weight.insert(pool_weight.end(), set.weight.begin(), set.weight.end());
     const FitData data = PrepareFit(model, targets, set, axes, o);
     std::vector<FitRun> run(nv);
     for (size_t v = 0; v < nv; ++v) {
@@ -793,6 +883,20 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
       best_seen[v] = std::min(best_seen[v], raced[v]);
     }
   }
+  // Each model's restarts pooled: one more finished fit, judged with them.
+  std::vector<char> pooled(nv, 0);
+  if (o.pool_restarts)
+    for (size_t v = 0; v < nv; ++v) {
+      if (fits[v].size() < 2) continue;
+      Report(progress, 0.99, "pooling the restarts");
+      const auto t0 = Clock::now();
+      const ShadowPlaneModel pool_model =
+          Subset(has_bounce(v) ? model : WithoutBounce(model), pool_idx, o.bounce_form_tolerance);
+      fits[v].push_back(
+          PoolFits(pool_model, pool_weight, Gather(targets, pool_idx), fits[v], hold_for(v), hold_targets, o));
+      fits[v].back().sum.select_seconds = Since(t0);
+      pooled[v] = 1;
+    }
   // The finished fits are judged on the held-out set or, where there is a
   // choice, on a larger one: the held-out pixels and more that no restart
   // fitted (in the held-out draw's shuffled order). Balanced, pub_torus_sunsky
@@ -859,6 +963,7 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   if (!judge.empty()) sum.restart_judged_mse = score[v_best];
   sum.judge_pixels = static_cast<int>(judge.size());
   sum.restart_chosen = static_cast<int>(chosen[v_best]);
+  sum.pooled = pooled[v_best] && chosen[v_best] + 1 == fits[v_best].size();
   sum.bounce = has_bounce(v_best);
   if (nv > 1) sum.bounce_heldout_mse = best_seen;
   sum.seconds = Since(start);

@@ -124,6 +124,7 @@ LightingEstimate SolveWithSg(Scene& scene, const fs::path& scene_dir, const Plan
                    {"restart_judged_mse", summary.restart_judged_mse},
                    {"judge_pixels", summary.judge_pixels},
                    {"restart_chosen", summary.restart_chosen},
+                   {"pooled", summary.pooled},
                    {"theta_seconds", summary.theta_seconds},
                    {"select_seconds", summary.select_seconds},
                    {"refine_seconds", summary.refine_seconds},

@@ -124,6 +124,7 @@ TEST(SgSolver, RestartsKeepTheBestHeldOutFitWithinBounds) {
   const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, Cases()[1].truth);
   SgSolverOptions o = SgSolverOptions::Budget("fast");
   o.restarts = 3;
+  o.pool_restarts = false;  // the choice among the restarts alone (the pool: below)
   o.seed = 11;
   SgSolverSummary s;
   const SgLighting est = SolveSg(model, targets, o, &s);
@@ -161,6 +162,7 @@ TEST(SgSolver, FinishedFitsAreJudgedOnMorePixelsThanTheHeldOutSet) {
   o.fit_pixels = 600;      // of 4096 points: most are left for judging
   o.holdout_pixels = 100;  // few: their verdict is noisy
   o.judge_pixels = 4096;
+  o.pool_restarts = false;
   o.seed = 5;
   SgSolverSummary s;
   const SgLighting est = SolveSg(model, targets, o, &s);
@@ -193,6 +195,73 @@ TEST(SgSolver, FinishedFitsAreJudgedOnMorePixelsThanTheHeldOutSet) {
   for (size_t r = 0; r < 3; ++r) EXPECT_DOUBLE_EQ(h.restart_heldout_mse[r], s.restart_heldout_mse[r]);
   const double best_held = *std::min_element(h.restart_heldout_mse.begin(), h.restart_heldout_mse.end());
   EXPECT_LE(h.restart_heldout_mse[h.restart_chosen], best_held * (1 + o.size_tolerance) + 1e-9);
+}
+
+// The pool is one more finished fit, judged with the restarts; pooling leaves
+// the restarts' own fits as they were.
+TEST(SgSolver, RestartsArePooledAndJudgedAsOneMoreFit) {
+  const ShadowPlaneModel model = SgTestModel(64);
+  const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, Cases()[1].truth);
+  SgSolverOptions o = SgSolverOptions::Budget("balanced");
+  ASSERT_EQ(o.restarts, 3);
+  ASSERT_TRUE(o.pool_restarts);
+  o.fit_pixels = 600;
+  o.holdout_pixels = 100;
+  o.judge_pixels = 4096;
+  o.seed = 5;
+  SgSolverSummary s;
+  const SgLighting est = SolveSg(model, targets, o, &s);
+  ASSERT_EQ(s.restart_heldout_mse.size(), 4u);
+  ASSERT_EQ(s.restart_judged_mse.size(), 4u);
+  const double best = *std::min_element(s.restart_judged_mse.begin(), s.restart_judged_mse.end());
+  EXPECT_LE(s.restart_judged_mse[s.restart_chosen], best * (1 + o.size_tolerance) + 1e-9);
+  EXPECT_EQ(s.pooled, s.restart_chosen == 3);
+  EXPECT_EQ(static_cast<int>(est.lobes.size()), s.lobes_kept);
+
+  SgSolverOptions apart = o;
+  apart.pool_restarts = false;
+  SgSolverSummary a;
+  SolveSg(model, targets, apart, &a);
+  ASSERT_EQ(a.restart_heldout_mse.size(), 3u);
+  EXPECT_FALSE(a.pooled);
+  for (size_t r = 0; r < 3; ++r) EXPECT_DOUBLE_EQ(a.restart_heldout_mse[r], s.restart_heldout_mse[r]);
+}
+
+// Fits that each found part of the light: the pool holds all of it, each
+// light once, with amplitudes re-solved.
+TEST(SgSolver, PoolJoinsPartialFitsAndKeepsEachLightOnce) {
+  const ShadowPlaneModel model = SgTestModel(48);
+  const SgLighting truth = Cases()[1].truth;
+  const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, truth);
+  const std::vector<double> weight(model.points.size(), 1.0);
+  SgSolverOptions o = SgSolverOptions::Budget("balanced");
+  SgLighting sun = truth, rest = truth;
+  sun.lobes = {truth.lobes[0]};
+  rest.lobes = {truth.lobes[1], truth.lobes[2]};
+  sun.lobes[0].amplitude *= 0.5;  // the pool re-solves the amplitudes
+  rest.lobes[1].amplitude *= 3;
+  const double alone = std::max(Psnr(RenderShadowPlane(model, sun), targets), Psnr(RenderShadowPlane(model, rest), targets));
+  std::vector<double> path;
+  const SgLighting pooled = PoolLobes(model, weight, targets, {sun, rest}, model, targets, o, &path);
+  EXPECT_EQ(pooled.lobes.size(), 3u);
+  EXPECT_LT(WorstAxisError(pooled, truth), 1e-9);
+  EXPECT_GT(Psnr(RenderShadowPlane(model, pooled), targets), 80.0);
+  EXPECT_LT(alone, 30.0);
+  // The leading sets are nested and their amplitudes fitted on these same
+  // points: the error never rises along the path.
+  ASSERT_EQ(path.size(), 3u);
+  for (size_t k = 1; k < path.size(); ++k) EXPECT_LE(path[k], path[k - 1] * (1 + 1e-9) + 1e-15);
+
+  // Two copies of the answer: each light once.
+  const SgLighting twice = PoolLobes(model, weight, targets, {truth, truth}, model, targets, o, &path);
+  EXPECT_EQ(twice.lobes.size(), 3u);
+  EXPECT_EQ(path.size(), 6u);
+  EXPECT_GT(Psnr(RenderShadowPlane(model, twice), targets), 80.0);
+  // --lobes N: the first N.
+  o.lobes = 2;
+  EXPECT_LE(PoolLobes(model, weight, targets, {sun, rest}, model, targets, o).lobes.size(), 2u);
+  o.lobes = 0;
+  EXPECT_TRUE(PoolLobes(model, weight, targets, {}, model, targets, o).lobes.empty());
 }
 
 // The size path takes lobes in the reverse order of backward elimination: a
