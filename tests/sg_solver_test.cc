@@ -240,7 +240,8 @@ TEST(SgSolver, PoolJoinsPartialFitsAndKeepsEachLightOnce) {
   rest.lobes = {truth.lobes[1], truth.lobes[2]};
   sun.lobes[0].amplitude *= 0.5;  // the pool re-solves the amplitudes
   rest.lobes[1].amplitude *= 3;
-  const double alone = std::max(Psnr(RenderShadowPlane(model, sun), targets), Psnr(RenderShadowPlane(model, rest), targets));
+  const double alone =
+      std::max(Psnr(RenderShadowPlane(model, sun), targets), Psnr(RenderShadowPlane(model, rest), targets));
   std::vector<double> path;
   const SgLighting pooled = PoolLobes(model, weight, targets, {sun, rest}, model, targets, o, &path);
   EXPECT_EQ(pooled.lobes.size(), 3u);
