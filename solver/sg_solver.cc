@@ -836,6 +836,10 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   std::vector<char> fitted(model.points.size(), 0);  // in some restart's fit set
   std::vector<size_t> pool_idx;  // every restart's fit pixels, and their weights
   std::vector<double> pool_weight;
+  // A model that clearly lost the first restart's race (BounceRaceDrops) is
+  // not fitted again; where that race was close, every restart races.
+  std::vector<char> entered(nv, 1);
+  std::vector<int> entries(nv, 0);
   for (int r = 0; r < o.restarts; ++r) {
     const FitSet set = SampleFit(model, targets, ho.rest, o, rng);
     for (size_t i : set.fit) fitted[i] = 1;
@@ -844,6 +848,8 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
     const FitData data = PrepareFit(model, targets, set, axes, o);
     std::vector<FitRun> run(nv);
     for (size_t v = 0; v < nv; ++v) {
+      if (!entered[v]) continue;
+      ++entries[v];
       const int index = r * static_cast<int>(nv) + static_cast<int>(v);
       ProgressFn sub;
       if (progress)
@@ -857,11 +863,12 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
     // The models' size paths step side by side; one whose best held-out
     // error trails the other's far enough (BounceRaceDrops) stops (this
     // restart only).
-    std::vector<char> racing(nv, 1);
+    std::vector<char> racing = entered;
     std::vector<double> raced(nv, std::numeric_limits<double>::infinity());
     while (std::count(racing.begin(), racing.end(), 1) > 1) {
       bool stepped = false;
-      for (size_t v = 0; v < nv; ++v) stepped |= StepFit(&run[v], o);
+      for (size_t v = 0; v < nv; ++v)
+        if (racing[v]) stepped |= StepFit(&run[v], o);
       for (size_t v = 0; v < nv; ++v)
         for (double h : run[v].path_mse) raced[v] = std::min(raced[v], h);
       for (size_t v = 0; v < nv; ++v)
@@ -884,6 +891,7 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
       }
       best_seen[v] = std::min(best_seen[v], raced[v]);
     }
+    if (o.bounce_race_once && r == 0) entered = racing;
   }
   // Each model's restarts pooled: one more finished fit, judged with them.
   std::vector<char> pooled(nv, 0);
@@ -967,7 +975,7 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   sum.restart_chosen = static_cast<int>(chosen[v_best]);
   sum.pooled = pooled[v_best] && chosen[v_best] + 1 == fits[v_best].size();
   sum.bounce = has_bounce(v_best);
-  if (nv > 1) sum.bounce_heldout_mse = best_seen;
+  if (nv > 1) sum.bounce_heldout_mse = best_seen, sum.bounce_race_entries = entries;
   sum.seconds = Since(start);
   Report(progress, 1.0, std::to_string(sum.lobes_kept) + " lobes");
   if (summary) *summary = sum;

@@ -113,6 +113,7 @@ LightingEstimate SolveWithSg(Scene& scene, const fs::path& scene_dir, const Plan
                    {"visibility", o.visibility},
                    {"bounce", summary.bounce},
                    {"bounce_heldout_mse", summary.bounce_heldout_mse},
+                   {"bounce_race_entries", summary.bounce_race_entries},
                    {"render_seconds", render_clock.Seconds()},
                    {"heldout_mse_path", summary.heldout_mse},
                    {"fit_mse_selected", summary.fit_mse_selected},

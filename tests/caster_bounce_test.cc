@@ -12,6 +12,7 @@
 
 #include "solver/plane_pixels.h"
 #include "solver/primitives.h"
+#include "solver/sg_solver.h"
 #include "solver/shadow_plane.h"
 #include "stages/evaluation.h"
 #include "stages/io/json_util.h"
@@ -236,6 +237,45 @@ TEST(CasterBounce, SolverKeepsTheBounceWhereTheImageHasIt) {
   std::printf("direct-only scene: auto %.2f dB (bounce %d), held-out %s\n", plain["psnr"].get<double>(),
               plain["report"]["bounce"].get<bool>(), plain["report"]["bounce_heldout_mse"].dump().c_str());
   EXPECT_FALSE(plain["report"]["bounce"].get<bool>());
+}
+
+// Restarts on a scene whose image has the bounce: the model without it
+// loses the first restart's race clearly and is not fitted again; the
+// winner's fits are those of racing every restart.
+TEST(CasterBounce, AClearLoserOfTheFirstRaceIsNotFittedAgain) {
+  shadowsg::testing::TempDir tmp;
+  const fs::path bounced = SynthScene(tmp, "bounced", TwoCasterSpec(2));
+  Scene scene = LoadScene(bounced);
+  const PlanePixels pixels = FindPlanePixels(scene, BuildRayCaster(scene.Casters()));
+  ShadowPlaneModel model = PrepareShadowPlane(scene, bounced, pixels, ShadingModel::kSg, QuietContext(2));
+  AddCasterBounce(scene, &model);
+  std::vector<Eigen::Vector3f> targets;
+  for (size_t k = 0; k < pixels.size(); ++k) targets.push_back(scene.image.rgb(pixels.pixel[k]).cast<float>());
+  SgSolverOptions o = SgSolverOptions::Budget("balanced");
+  ASSERT_EQ(o.restarts, 3);
+  ASSERT_TRUE(o.bounce_race_once);
+  o.fit_pixels = 600;
+  o.holdout_pixels = 300;
+  o.seed = 2;
+  SgSolverSummary once;
+  SolveSg(model, targets, o, &once);
+  std::printf("held-out without / with the bounce %s; restarts entered %d / %d\n",
+              Json(once.bounce_heldout_mse).dump().c_str(), once.bounce_race_entries[0], once.bounce_race_entries[1]);
+  EXPECT_TRUE(once.bounce);
+  ASSERT_EQ(once.bounce_race_entries.size(), 2u);
+  EXPECT_EQ(once.bounce_race_entries[0], 1);
+  EXPECT_EQ(once.bounce_race_entries[1], 3);
+
+  o.bounce_race_once = false;
+  SgSolverSummary every;
+  SolveSg(model, targets, o, &every);
+  ASSERT_EQ(every.bounce_race_entries.size(), 2u);
+  EXPECT_EQ(every.bounce_race_entries[0], 3);
+  EXPECT_EQ(every.bounce_race_entries[1], 3);
+  EXPECT_TRUE(every.bounce);
+  ASSERT_EQ(every.restart_heldout_mse.size(), once.restart_heldout_mse.size());
+  for (size_t r = 0; r < once.restart_heldout_mse.size(); ++r)
+    EXPECT_DOUBLE_EQ(every.restart_heldout_mse[r], once.restart_heldout_mse[r]);
 }
 
 }  // namespace
