@@ -689,51 +689,24 @@ FitResult FinishFit(FitRun&& run, double signal, const SgSolverOptions& o) {
   return r;
 }
 
-// The finished fits of one model pooled (PoolLobes), as one more fit.
-FitResult PoolFits(const ShadowPlaneModel& pool_model, const std::vector<double>& weight,
-                   const std::vector<Eigen::Vector3f>& targets, const std::vector<FitResult>& fits,
-                   const ShadowPlaneModel& hold_model, const std::vector<Eigen::Vector3f>& hold_targets,
-                   const SgSolverOptions& o) {
-  std::vector<SgLighting> lightings;
-  for (const FitResult& f : fits) lightings.push_back(f.lighting);
-  FitResult r;
-  r.sum = fits[0].sum;
-  r.sum.theta_seconds = r.sum.select_seconds = r.sum.refine_seconds = 0;  // the restarts' own are counted
-  r.sum.scan_moves = 0;
-  r.sum.refine_iterations = 0;
-  r.lighting = PoolLobes(pool_model, weight, targets, lightings, hold_model, hold_targets, o, &r.sum.heldout_mse);
-  r.sum.fit_mse_selected = r.sum.fit_mse_refined = WeightedMse(pool_model, r.lighting, weight, targets);
-  r.sum.lobes_kept = static_cast<int>(r.lighting.lobes.size());
-  r.heldout_mse = r.lighting.lobes.empty() ? std::numeric_limits<double>::infinity()
-                                           : WeightedMse(hold_model, r.lighting, {}, hold_targets);
-  return r;
-}
-
-}  // namespace
-
-std::vector<SgLobe> OrderByElimination(const ShadowPlaneModel& model, const std::vector<double>& weight,
-                                       const std::vector<Eigen::Vector3f>& targets, const std::vector<SgLobe>& lobes) {
-  SHADOWSG_CHECK(weight.size() == model.points.size() && targets.size() == model.points.size());
-  if (lobes.size() < 2) return lobes;
-  std::vector<SgLobe> ordered;
-  for (long i : EliminationOrder(BuildLobeNormalEquations(model, weight, targets, lobes))) ordered.push_back(lobes[i]);
-  return ordered;
-}
-
-SgLighting PoolLobes(const ShadowPlaneModel& model, const std::vector<double>& weight,
-                     const std::vector<Eigen::Vector3f>& targets, const std::vector<SgLighting>& fits,
-                     const ShadowPlaneModel& hold_model, const std::vector<Eigen::Vector3f>& hold_targets,
-                     const SgSolverOptions& o, std::vector<double>* heldout_path) {
-  SHADOWSG_CHECK(weight.size() == model.points.size() && targets.size() == model.points.size());
-  SHADOWSG_CHECK(hold_targets.size() == hold_model.points.size());
-  SgLighting pooled;
-  if (!fits.empty()) pooled.up = fits[0].up;
+std::vector<SgLobe> PooledLobes(const std::vector<SgLighting>& fits) {
   std::vector<SgLobe> lobes;
   for (const SgLighting& f : fits) lobes.insert(lobes.end(), f.lobes.begin(), f.lobes.end());
+  return lobes;
+}
+
+// PoolLobes on the fit points' system of all the lobes (one system serves
+// the elimination and every leading set). *fit_mse (optional): the weighted
+// fit MSE of the result, from the same system.
+SgLighting PoolLobeSystem(LobeNormalEquations eq, std::vector<SgLobe> lobes, const Eigen::Vector3d& up,
+                          const ShadowPlaneModel& hold_model, const std::vector<Eigen::Vector3f>& hold_targets,
+                          const SgSolverOptions& o, std::vector<double>* heldout_path, double weight_sum = 0,
+                          double* fit_mse = nullptr) {
+  SHADOWSG_CHECK(hold_targets.size() == hold_model.points.size());
+  SgLighting pooled;
+  pooled.up = up;
   if (heldout_path) heldout_path->clear();
   if (lobes.empty()) return pooled;
-  // One system of all the lobes serves the elimination and every leading set.
-  LobeNormalEquations eq = BuildLobeNormalEquations(model, weight, targets, lobes);
   const std::vector<long> order = EliminationOrder(eq);
   for (int c = 0; c < 3; ++c) {
     eq.gram[c] = Eigen::MatrixXd(eq.gram[c](order, order));
@@ -773,6 +746,12 @@ SgLighting PoolLobes(const ShadowPlaneModel& model, const std::vector<double>& w
     if (heldout_path) *heldout_path = std::move(path);
   }
   const std::array<Eigen::VectorXd, 3> x = amplitudes(k);
+  if (fit_mse) {
+    double se = 0;
+    for (int c = 0; c < 3; ++c)
+      se += eq.btb[c] - 2 * x[c].dot(eq.atb[c].head(k)) + x[c].dot(eq.gram[c].topLeftCorner(k, k) * x[c]);
+    *fit_mse = std::max(0.0, se) / (3 * std::max(1e-300, weight_sum));
+  }
   for (long i = 0; i < k; ++i) {
     SgLobe b = lobes[i];
     b.amplitude = Eigen::Vector3d(x[0][i], x[1][i], x[2][i]);
@@ -780,6 +759,63 @@ SgLighting PoolLobes(const ShadowPlaneModel& model, const std::vector<double>& w
   }
   RemoveInvalidLobes(&pooled);
   return pooled;
+}
+
+// The finished fits of one model pooled (PoolLobes), as one more fit, on
+// every restart's fit pixels as prepared for the restart: their systems add
+// up to the system of all of them.
+FitResult PoolFits(const std::vector<FitData>& sets, bool bounce, const std::vector<FitResult>& fits,
+                   const ShadowPlaneModel& hold_model, const std::vector<Eigen::Vector3f>& hold_targets,
+                   const SgSolverOptions& o) {
+  std::vector<SgLighting> lightings;
+  for (const FitResult& f : fits) lightings.push_back(f.lighting);
+  const std::vector<SgLobe> lobes = PooledLobes(lightings);
+  LobeNormalEquations eq;
+  double weight_sum = 0;
+  for (const FitData& d : sets) {
+    const LobeNormalEquations part = BuildLobeNormalEquations(bounce ? d.model : d.direct, d.weight, d.targets, lobes);
+    for (int c = 0; c < 3; ++c) {
+      eq.gram[c] = eq.gram[c].size() ? Eigen::MatrixXd(eq.gram[c] + part.gram[c]) : part.gram[c];
+      eq.atb[c] = eq.atb[c].size() ? Eigen::VectorXd(eq.atb[c] + part.atb[c]) : part.atb[c];
+      eq.btb[c] += part.btb[c];
+    }
+    for (double w : d.weight) weight_sum += w;
+  }
+  FitResult r;
+  r.sum = fits[0].sum;
+  r.sum.theta_seconds = r.sum.select_seconds = r.sum.refine_seconds = 0;  // the restarts' own are counted
+  r.sum.scan_moves = 0;
+  r.sum.refine_iterations = 0;
+  r.lighting = PoolLobeSystem(eq, lobes, lightings[0].up, hold_model, hold_targets, o, &r.sum.heldout_mse, weight_sum,
+                              &r.sum.fit_mse_selected);
+  r.sum.fit_mse_refined = r.sum.fit_mse_selected;
+  r.sum.lobes_kept = static_cast<int>(r.lighting.lobes.size());
+  r.heldout_mse = r.lighting.lobes.empty() ? std::numeric_limits<double>::infinity()
+                                           : WeightedMse(hold_model, r.lighting, {}, hold_targets);
+  return r;
+}
+
+}  // namespace
+
+std::vector<SgLobe> OrderByElimination(const ShadowPlaneModel& model, const std::vector<double>& weight,
+                                       const std::vector<Eigen::Vector3f>& targets, const std::vector<SgLobe>& lobes) {
+  SHADOWSG_CHECK(weight.size() == model.points.size() && targets.size() == model.points.size());
+  if (lobes.size() < 2) return lobes;
+  std::vector<SgLobe> ordered;
+  for (long i : EliminationOrder(BuildLobeNormalEquations(model, weight, targets, lobes))) ordered.push_back(lobes[i]);
+  return ordered;
+}
+
+SgLighting PoolLobes(const ShadowPlaneModel& model, const std::vector<double>& weight,
+                     const std::vector<Eigen::Vector3f>& targets, const std::vector<SgLighting>& fits,
+                     const ShadowPlaneModel& hold_model, const std::vector<Eigen::Vector3f>& hold_targets,
+                     const SgSolverOptions& o, std::vector<double>* heldout_path) {
+  SHADOWSG_CHECK(weight.size() == model.points.size() && targets.size() == model.points.size());
+  const std::vector<SgLobe> lobes = PooledLobes(fits);
+  const LobeNormalEquations eq =
+      lobes.empty() ? LobeNormalEquations{} : BuildLobeNormalEquations(model, weight, targets, lobes);
+  return PoolLobeSystem(eq, lobes, fits.empty() ? Eigen::Vector3d::UnitZ() : fits[0].up, hold_model, hold_targets, o,
+                        heldout_path);
 }
 
 bool BounceRaceDrops(size_t steps, size_t other_steps, double best, double other_best, bool paths_ended) {
@@ -834,8 +870,8 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   std::vector<double> best_seen(nv, std::numeric_limits<double>::infinity());  // per model, over restarts
   const int runs = o.restarts * static_cast<int>(nv);
   std::vector<char> fitted(model.points.size(), 0);  // in some restart's fit set
-  std::vector<size_t> pool_idx;  // every restart's fit pixels, and their weights
-  std::vector<double> pool_weight;
+  std::vector<FitData> sets;  // every restart's fit pixels as prepared (dictionary dropped), for the pool
+  sets.reserve(static_cast<size_t>(o.restarts));
   // A model that clearly lost the first restart's race (BounceRaceDrops) is
   // not fitted again; where that race was close, every restart races.
   std::vector<char> entered(nv, 1);
@@ -843,9 +879,8 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   for (int r = 0; r < o.restarts; ++r) {
     const FitSet set = SampleFit(model, targets, ho.rest, o, rng);
     for (size_t i : set.fit) fitted[i] = 1;
-    pool_idx.insert(pool_idx.end(), set.fit.begin(), set.fit.end());
-    pool_weight.insert(pool_weight.end(), set.weight.begin(), set.weight.end());
-    const FitData data = PrepareFit(model, targets, set, axes, o);
+    sets.push_back(PrepareFit(model, targets, set, axes, o));
+    const FitData& data = sets.back();
     std::vector<FitRun> run(nv);
     for (size_t v = 0; v < nv; ++v) {
       if (!entered[v]) continue;
@@ -892,6 +927,7 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
       best_seen[v] = std::min(best_seen[v], raced[v]);
     }
     if (o.bounce_race_once && r == 0) entered = racing;
+    sets.back().G = Eigen::MatrixXf();
   }
   // Each model's restarts pooled: one more finished fit, judged with them.
   std::vector<char> pooled(nv, 0);
@@ -900,10 +936,7 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
       if (fits[v].size() < 2) continue;
       Report(progress, 0.99, "pooling the restarts");
       const auto t0 = Clock::now();
-      const ShadowPlaneModel pool_model =
-          Subset(has_bounce(v) ? model : WithoutBounce(model), pool_idx, o.bounce_form_tolerance);
-      fits[v].push_back(
-          PoolFits(pool_model, pool_weight, Gather(targets, pool_idx), fits[v], hold_for(v), hold_targets, o));
+      fits[v].push_back(PoolFits(sets, has_bounce(v), fits[v], hold_for(v), hold_targets, o));
       fits[v].back().sum.select_seconds = Since(t0);
       pooled[v] = 1;
     }
