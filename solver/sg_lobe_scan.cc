@@ -58,13 +58,16 @@ LobeScanResult ScanBrightestSharpLobe(const ShadowPlaneModel& model, const std::
   for (int a = -na; a <= na; ++a)
     for (int e = -ne; e <= ne; ++e) {
       const double de = e * o.elevation_step_deg * kDeg, da = a * o.azimuth_step_deg * kDeg;
-      if (elevation + de < kMinElevation || elevation + de > kMaxElevation) continue;
+      // The lobe's own place is always a candidate, even past the limits
+      // (a lobe 0.5 degrees from the pole: best, pub_torus_sunsky seed 0).
+      const bool own_place = a == 0 && e == 0;
+      if (!own_place && (elevation + de < kMinElevation || elevation + de > kMaxElevation)) continue;
       const Eigen::Vector3d h = std::cos(da) * toward + std::sin(da) * side;
       const Eigen::Vector3d axis = (std::cos(elevation + de) * h + std::sin(elevation + de) * n).normalized();
       for (double f : factors) {
-        if (a == 0 && e == 0 && f == 1.0) own = static_cast<long>(candidates.size());
+        if (own_place && f == 1.0) own = static_cast<long>(candidates.size());
         grid.push_back({de, da, f});
-        candidates.push_back({e == 0 && a == 0 ? scanned.axis : axis, scanned.sharpness * f, scanned.amplitude});
+        candidates.push_back({own_place ? scanned.axis : axis, scanned.sharpness * f, scanned.amplitude});
       }
     }
   SHADOWSG_CHECK(own >= 0);

@@ -68,6 +68,30 @@ TEST(LobeScan, MovesAMisplacedSunOntoItsShadow) {
 
 // At the right place nothing moves, and a scene of broad lobes alone has no
 // shadow edge to scan.
+// A sharp lobe past the scan's elevation limits (89.5 degrees, near the
+// pole; -7, below the horizon) is scanned from its own place: it stays where
+// nothing fits better, and a sun above it is found.
+TEST(LobeScan, ScansALobePastTheElevationLimitsFromItsOwnPlace) {
+  ShadowPlaneModel model = TestPlaneModel(48, CosineModel::kExact);
+  model.PrepareCones();
+  const std::vector<double> weight(model.points.size(), 1.0);
+  for (double elevation : {89.5, -7.0}) {
+    const SgLighting truth = SunAndSky(Direction(elevation, 30), 200);
+    SgLighting placed = truth;
+    const LobeScanResult r = ScanBrightestSharpLobe(model, weight, RenderShadowPlane(model, truth), &placed);
+    EXPECT_EQ(r.lobe, 1) << elevation;
+    EXPECT_FALSE(r.moved) << elevation;
+    EXPECT_LT(AngleDeg(placed.lobes[1].axis, truth.lobes[1].axis), 1e-9) << elevation;
+  }
+  // Started 6 degrees under the near-pole sun: the grid's highest point under
+  // its 89-degree limit (88.5, 5 steps up) is the closest it can reach.
+  const SgLighting truth = SunAndSky(Direction(89.5, 30), 200);
+  SgLighting low = SunAndSky(Direction(83.5, 30), 200);
+  const LobeScanResult r = ScanBrightestSharpLobe(model, weight, RenderShadowPlane(model, truth), &low);
+  ASSERT_TRUE(r.moved);
+  EXPECT_NEAR(r.elevation_shift_deg, 5, 1e-9);
+}
+
 TEST(LobeScan, LeavesAPlacedSunAndBroadLightAlone) {
   ShadowPlaneModel model = TestPlaneModel(48, CosineModel::kExact);
   model.PrepareCones();
