@@ -259,10 +259,10 @@ TEST(CasterBounce, AClearLoserOfTheFirstRaceIsNotFittedAgain) {
   o.seed = 2;
   SgSolverSummary once;
   SolveSg(model, targets, o, &once);
+  ASSERT_EQ(once.bounce_race_entries.size(), 2u);
   std::printf("held-out without / with the bounce %s; restarts entered %d / %d\n",
               Json(once.bounce_heldout_mse).dump().c_str(), once.bounce_race_entries[0], once.bounce_race_entries[1]);
   EXPECT_TRUE(once.bounce);
-  ASSERT_EQ(once.bounce_race_entries.size(), 2u);
   EXPECT_EQ(once.bounce_race_entries[0], 1);
   EXPECT_EQ(once.bounce_race_entries[1], 3);
 

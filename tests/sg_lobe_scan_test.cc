@@ -66,8 +66,6 @@ TEST(LobeScan, MovesAMisplacedSunOntoItsShadow) {
   EXPECT_LT(se, 1e-8 * ss);
 }
 
-// At the right place nothing moves, and a scene of broad lobes alone has no
-// shadow edge to scan.
 // A sharp lobe past the scan's elevation limits (89.5 degrees, near the
 // pole; -7, below the horizon) is scanned from its own place: it stays where
 // nothing fits better, and a sun above it is found.
@@ -92,6 +90,8 @@ TEST(LobeScan, ScansALobePastTheElevationLimitsFromItsOwnPlace) {
   EXPECT_NEAR(r.elevation_shift_deg, 5, 1e-9);
 }
 
+// At the right place nothing moves, and a scene of broad lobes alone has no
+// shadow edge to scan.
 TEST(LobeScan, LeavesAPlacedSunAndBroadLightAlone) {
   ShadowPlaneModel model = TestPlaneModel(48, CosineModel::kExact);
   model.PrepareCones();
