@@ -331,11 +331,27 @@ int RefineLobes(const ShadowPlaneModel& model, const std::vector<double>& weight
 // sharpness over the points of `model`: gram = A^T A, atb = A^T b, btb = b^T b,
 // A(k, i) = sqrt(w_k) rho_kc/pi (direct + bounce shading of lobe i at k),
 // b(k) = sqrt(w_k) target_kc. NNLS on it gives the amplitudes of any subset.
+// Systems of the same lobes over disjoint or repeated points add up.
 struct LobeNormalEquations {
   std::array<Eigen::MatrixXd, 3> gram;
   std::array<Eigen::VectorXd, 3> atb;
   std::array<double, 3> btb{};
+  double weight_sum = 0;  // sum of w_k: the weighted MSE is the squared error / (3 weight_sum)
+
+  void Add(const LobeNormalEquations& other) {
+    for (int c = 0; c < 3; ++c) {
+      gram[c] = gram[c].size() ? Eigen::MatrixXd(gram[c] + other.gram[c]) : other.gram[c];
+      atb[c] = atb[c].size() ? Eigen::VectorXd(atb[c] + other.atb[c]) : other.atb[c];
+      btb[c] += other.btb[c];
+    }
+    weight_sum += other.weight_sum;
+  }
 };
+
+// |A x - b|^2 of one channel from its system: b^T b - 2 x^T A^T b + x^T A^T A x.
+double SquaredError(const Eigen::MatrixXd& gram, const Eigen::VectorXd& atb, double btb, const Eigen::VectorXd& x) {
+  return btb - 2 * x.dot(atb) + x.dot(gram * x);
+}
 
 LobeNormalEquations BuildLobeNormalEquations(const ShadowPlaneModel& model, const std::vector<double>& weight,
                                              const std::vector<Eigen::Vector3f>& targets,
@@ -356,6 +372,7 @@ LobeNormalEquations BuildLobeNormalEquations(const ShadowPlaneModel& model, cons
     eq.atb[c] = a.transpose() * b;
     eq.btb[c] = b.squaredNorm();
   }
+  for (double w : weight) eq.weight_sum += w;
   return eq;
 }
 
@@ -391,7 +408,7 @@ std::vector<long> EliminationOrder(const LobeNormalEquations& eq) {
         for (long j = 0; j < m; ++j) h(i, j) = eq.gram[c](set[i], set[j]);
       }
       const Eigen::VectorXd x = SolveNnls(h, f);
-      e += eq.btb[c] - 2 * x.dot(f) + x.dot(h * x);
+      e += SquaredError(h, f, eq.btb[c], x);
       if (active)
         for (long i = 0; i < m; ++i) (*active)[i] |= x[i] > 0;
     }
@@ -707,7 +724,7 @@ std::vector<SgLobe> PooledLobes(const std::vector<SgLighting>& fits) {
 // fit MSE of the result, from the same system.
 SgLighting PoolLobeSystem(LobeNormalEquations eq, std::vector<SgLobe> lobes, const Eigen::Vector3d& up,
                           const ShadowPlaneModel& hold_model, const std::vector<Eigen::Vector3f>& hold_targets,
-                          const SgSolverOptions& o, std::vector<double>* heldout_path, double weight_sum = 0,
+                          const SgSolverOptions& o, std::vector<double>* heldout_path,
                           double* fit_mse = nullptr) {
   SHADOWSG_CHECK(hold_targets.size() == hold_model.points.size());
   SgLighting pooled;
@@ -744,7 +761,7 @@ SgLighting PoolLobeSystem(LobeNormalEquations eq, std::vector<SgLobe> lobes, con
       const std::array<Eigen::VectorXd, 3> x = amplitudes(m);
       double se = 0;
       for (int c = 0; c < 3; ++c)
-        se += hold.btb[c] - 2 * x[c].dot(hold.atb[c].head(m)) + x[c].dot(hold.gram[c].topLeftCorner(m, m) * x[c]);
+        se += SquaredError(hold.gram[c].topLeftCorner(m, m), hold.atb[c].head(m), hold.btb[c], x[c]);
       path.push_back(std::max(0.0, se) / count);
     }
     const double best = *std::min_element(path.begin(), path.end());
@@ -756,8 +773,8 @@ SgLighting PoolLobeSystem(LobeNormalEquations eq, std::vector<SgLobe> lobes, con
   if (fit_mse) {
     double se = 0;
     for (int c = 0; c < 3; ++c)
-      se += eq.btb[c] - 2 * x[c].dot(eq.atb[c].head(k)) + x[c].dot(eq.gram[c].topLeftCorner(k, k) * x[c]);
-    *fit_mse = std::max(0.0, se) / (3 * std::max(1e-300, weight_sum));
+      se += SquaredError(eq.gram[c].topLeftCorner(k, k), eq.atb[c].head(k), eq.btb[c], x[c]);
+    *fit_mse = std::max(0.0, se) / (3 * std::max(1e-300, eq.weight_sum));
   }
   for (long i = 0; i < k; ++i) {
     SgLobe b = lobes[i];
@@ -778,23 +795,14 @@ FitResult PoolFits(const std::vector<FitData>& sets, bool bounce, const std::vec
   for (const FitResult& f : fits) lightings.push_back(f.lighting);
   const std::vector<SgLobe> lobes = PooledLobes(lightings);
   LobeNormalEquations eq;
-  double weight_sum = 0;
-  for (const FitData& d : sets) {
-    const LobeNormalEquations part = BuildLobeNormalEquations(bounce ? d.model : d.direct, d.weight, d.targets, lobes);
-    for (int c = 0; c < 3; ++c) {
-      eq.gram[c] = eq.gram[c].size() ? Eigen::MatrixXd(eq.gram[c] + part.gram[c]) : part.gram[c];
-      eq.atb[c] = eq.atb[c].size() ? Eigen::VectorXd(eq.atb[c] + part.atb[c]) : part.atb[c];
-      eq.btb[c] += part.btb[c];
-    }
-    for (double w : d.weight) weight_sum += w;
-  }
+  for (const FitData& d : sets) eq.Add(BuildLobeNormalEquations(bounce ? d.model : d.direct, d.weight, d.targets, lobes));
   FitResult r;
   r.sum = fits[0].sum;
   r.sum.theta_seconds = r.sum.select_seconds = r.sum.refine_seconds = 0;  // the restarts' own are counted
   r.sum.scan_moves = 0;
   r.sum.refine_iterations = 0;
-  r.lighting = PoolLobeSystem(eq, lobes, lightings[0].up, hold_model, hold_targets, o, &r.sum.heldout_mse, weight_sum,
-                              &r.sum.fit_mse_selected);
+  r.lighting =
+      PoolLobeSystem(eq, lobes, lightings[0].up, hold_model, hold_targets, o, &r.sum.heldout_mse, &r.sum.fit_mse_selected);
   r.sum.fit_mse_refined = r.sum.fit_mse_selected;
   r.sum.lobes_kept = static_cast<int>(r.lighting.lobes.size());
   r.heldout_mse = r.lighting.lobes.empty() ? std::numeric_limits<double>::infinity()
