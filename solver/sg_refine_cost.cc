@@ -50,7 +50,7 @@ const OccluderCones::AngleHints& RefineCost::Hints(int lobe) const { return cach
 
 void RefineCost::Update(const std::vector<Eigen::Vector3d>& axes, const std::vector<double>& lambda,
                         bool derivatives, bool need_dbounce) const {
-  std::vector<int> stale, no_dbounce, need_product;
+  std::vector<int> stale, need_product;
   for (int i = 0; i < lobes_; ++i) {
     LobeCache& c = cache_[i];
     if (c.axis != axes[i] || c.lambda != lambda[i]) {
@@ -58,12 +58,10 @@ void RefineCost::Update(const std::vector<Eigen::Vector3d>& axes, const std::vec
       c.axis = axes[i];
       c.lambda = lambda[i];
       if (model_.exact) c.exact = model_.exact->Prepare(axes[i], lambda[i]);
-      c.dbounce = {};
       need_product.push_back(i);
     } else if (derivatives && !c.product_derivatives) {
       need_product.push_back(i);
     }
-    if (need_dbounce && c.dbounce[0].size() == 0) no_dbounce.push_back(i);
   }
   // The exact cosine integral costs ~20 us a lobe (~90 with derivatives).
 #pragma omp parallel for schedule(static) if (need_product.size() > 1)
@@ -98,7 +96,28 @@ void RefineCost::Update(const std::vector<Eigen::Vector3d>& axes, const std::vec
       for (long k = 0; k < np; ++k) c.witness[k] = witness[k * ns + s];
     }
   }
-  if (!model_.bounce) return;
+  if (model_.bounce) UpdateBounce(axes, lambda, derivatives, need_dbounce);
+}
+
+void RefineCost::UpdateBounce(const std::vector<Eigen::Vector3d>& axes, const std::vector<double>& lambda,
+                              bool derivatives, bool need_dbounce) const {
+  std::vector<int> stale, no_dbounce;
+  for (int i = 0; i < lobes_; ++i) {
+    LobeCache& c = cache_[i];
+    if (c.bounce_axis != axes[i] || c.bounce_lambda != lambda[i]) {
+      stale.push_back(i);
+      c.bounce_axis = axes[i];
+      c.bounce_lambda = lambda[i];
+      c.dbounce = {};
+    }
+    if (need_dbounce && c.dbounce[0].size() == 0) no_dbounce.push_back(i);
+  }
+  auto pick = [&](const std::vector<int>& which, double log_step) {
+    std::vector<Eigen::Vector3d> a;
+    std::vector<double> l;
+    for (int i : which) a.push_back(axes[i]), l.push_back(lambda[i] * std::exp(log_step));
+    return std::make_pair(a, l);
+  };
   // The casters' bounce, and its log-sharpness derivative by a forward
   // difference (see the header).
   constexpr double kStep = 0.02;
@@ -149,6 +168,67 @@ void RefineCost::Update(const std::vector<Eigen::Vector3d>& axes, const std::vec
         c.dbounce[ch] = (b[ch].col(static_cast<long>(s)) - c.bounce[ch]) / static_cast<float>(kStep);
     }
   }
+}
+
+bool RefineCost::CostExceeds(const std::vector<SgLobe>& lobes, double limit) const {
+  SHADOWSG_CHECK(static_cast<int>(lobes.size()) == lobes_);
+  if (model_.exact || !model_.HasCones()) return false;
+  const long np = points();
+  // The fit sets' points come in random order (solver/sg_solver.cc), so a
+  // prefix is a sample: 16 chunks would cover them all.
+  const long chunk = std::max<long>(64, np / 16), stop = np / 4;
+  std::vector<ProductLobe> products(lobes_);
+  std::vector<Eigen::Vector3d> axes(lobes_);
+  std::vector<float> caps(lobes_);
+  for (int j = 0; j < lobes_; ++j) {
+    axes[j] = lobes[j].axis;
+    products[j] = EvalProductLobe(axes[j], lobes[j].sharpness, model_.normal, model_.cosine, false);
+    caps[j] = VisibilityCap(products[j]);
+  }
+  // The lobes' bounce at the points, summed (as Evaluate's residuals have it).
+  Eigen::MatrixXf bounce;
+  if (model_.bounce) {
+    std::vector<double> lambda(lobes_);
+    for (int j = 0; j < lobes_; ++j) lambda[j] = lobes[j].sharpness;
+    UpdateBounce(axes, lambda, false, false);
+    if (model_.HasBounceForm()) {
+      Eigen::MatrixXf y = Eigen::MatrixXf::Zero(model_.bounce_form.rank(), 3);
+      for (int j = 0; j < lobes_; ++j)
+        for (int c = 0; c < 3; ++c) y.col(c) += static_cast<float>(lobes[j].amplitude[c]) * cache_[j].reduced[c];
+      bounce = model_.bounce_form.left.topRows(stop) * y;
+    } else {
+      bounce = Eigen::MatrixXf::Zero(stop, 3);
+      for (int j = 0; j < lobes_; ++j)
+        for (int c = 0; c < 3; ++c)
+          bounce.col(c) += static_cast<float>(lobes[j].amplitude[c]) * cache_[j].bounce[c].head(stop);
+    }
+  }
+  double cost = 0;
+  for (long begin = 0; begin < stop; begin += chunk) {
+    const long end = std::min(begin + chunk, stop);
+    Eigen::MatrixXf theta;
+    model_.cones.AnglesOfRange(axes, static_cast<size_t>(begin), static_cast<size_t>(end), &theta, &caps);
+    double sum_sq = 0;
+#pragma omp parallel for schedule(static) reduction(+ : sum_sq)
+    for (long k = begin; k < end; ++k) {
+      Eigen::Vector3d direct = Eigen::Vector3d::Zero();
+      for (int j = 0; j < lobes_; ++j)
+        direct += ShadeLobe(products[j], theta(k - begin, j), Eigen::Vector3d::Zero(),
+                            model_.cap_occlusion ? model_.occluder_cos[k] : kNoOcclusionCap)
+                      .value *
+                  lobes[j].amplitude;
+      if (bounce.size()) direct += bounce.row(k).transpose().cast<double>();
+      for (int c = 0; c < 3; ++c) {
+        const double r = model_.albedo[k][c] / M_PI * sqrt_w_[k] * direct[c] - sqrt_w_[k] * targets_[k][c];
+        sum_sq += r * r;
+      }
+    }
+    cost += 0.5 * sum_sq;
+    if (cost > limit) return true;
+    // The quarter would not get there at this rate: no proof to wait for.
+    if (cost * static_cast<double>(stop) / static_cast<double>(end) < 0.5 * limit) return false;
+  }
+  return false;
 }
 
 void RefineCost::Evaluate(const std::vector<SgLobe>& lobes, Eigen::MatrixX3d* residuals,

@@ -77,6 +77,15 @@ class RefineCost {
   // `jacobian`, its Jacobian too.
   void Evaluate(const std::vector<SgLobe>& lobes, Eigen::MatrixX3d* residuals, RefineJacobian* jacobian) const;
 
+  // Whether the cost (1/2 the sum of squared residuals) at `lobes` is surely
+  // above `limit`: the sum over the first points (a lower bound on it), a
+  // chunk at a time, up to a quarter of them. Levenberg-Marquardt's first
+  // steps of a solve go far, and most are refused at many times the cost
+  // (pub_torus_sunrise: 3-38x); here they are refused after a few hundred
+  // points' visibility. The lobes' bounce is computed and kept, as an
+  // evaluation would; their visibility is not kept, nor its hints.
+  bool CostExceeds(const std::vector<SgLobe>& lobes, double limit) const;
+
   // A lobe's visibility search hints (OccluderCones::AngleHints, one axis),
   // before the first evaluation (from an earlier fit of the same lobe over
   // the same points) and after the last (for the next).
@@ -94,6 +103,10 @@ class RefineCost {
     std::vector<Eigen::Vector3f> witness;   // and its witness direction
     OccluderCones::AngleHints hints;        // what the last search learnt, for the next (one axis)
     OccluderCones::AngleHints ground_hints; // the same for the bounce's ground points
+    // What the bounce below was computed for (CostExceeds computes it ahead
+    // of the rest).
+    Eigen::Vector3d bounce_axis = Eigen::Vector3d::Zero();
+    double bounce_lambda = -1;
     // The bounce per channel: the patches' radiance in the form factors'
     // basis (FactoredFormFactors::Reduce), and at the points (per point;
     // empty until a Jacobian asks for it: a residual needs only the
@@ -107,6 +120,10 @@ class RefineCost {
   // it parallelises inside).
   void Update(const std::vector<Eigen::Vector3d>& axes, const std::vector<double>& lambda, bool derivatives,
               bool need_dbounce) const;
+  // The bounce's part of Update, on its own: CostExceeds needs the bounce
+  // of a step before any point's visibility.
+  void UpdateBounce(const std::vector<Eigen::Vector3d>& axes, const std::vector<double>& lambda, bool derivatives,
+                    bool need_dbounce) const;
 
   const ShadowPlaneModel& model_;
   const std::vector<Eigen::Vector3f>& targets_;

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "calib/error.h"
 
@@ -14,6 +15,7 @@ namespace {
 constexpr double kMinDiagonal = 1e-6, kMaxDiagonal = 1e32;
 constexpr double kMaxRadius = 1e16, kMinRadius = 1e-32;
 constexpr double kMinRelativeDecrease = 1e-3;
+constexpr double kProbeMargin = 1e-3;
 
 struct NormalEquations {
   Eigen::MatrixXd H;  // J'J, unknowns ordered: geometry (3 a lobe), then amplitudes channel by channel
@@ -131,10 +133,20 @@ RefineLmSummary RefineByLm(const RefineCost& cost, std::vector<SgLobe>* lobes, c
       // Converged (Ceres' parameter and function tolerances): the candidate is not taken.
       bool converged = taken.norm() <= o.parameter_tolerance * (ParameterNorm(*lobes) + o.parameter_tolerance);
       if (!converged) {
-        cost.Evaluate(candidate, &r_new, nullptr);
-        f_new = Cost(r_new);
-        ok = std::isfinite(f_new);
-        converged = ok && std::abs(f - f_new) <= o.function_tolerance * f;
+        // A far step shown on a sample of the points to cost more than
+        // (1 + kProbeMargin) f is refused as its full evaluation would
+        // refuse it (not converged either: the margin is far above the
+        // function tolerance and the sample's rounding).
+        if (radius >= o.probe_radius && cost.CostExceeds(candidate, (1 + kProbeMargin) * f)) {
+          f_new = std::numeric_limits<double>::infinity();
+          ok = false;
+          ++sum.probe_refusals;
+        } else {
+          cost.Evaluate(candidate, &r_new, nullptr);
+          f_new = Cost(r_new);
+          ok = std::isfinite(f_new);
+          converged = ok && std::abs(f - f_new) <= o.function_tolerance * f;
+        }
       }
       if (converged) {
         if (on_iteration) on_iteration(sum.iterations, f);

@@ -895,6 +895,34 @@ void OccluderCones::Angles(const std::vector<Eigen::Vector3d>& axes, Eigen::Matr
   if (hints) hints->axes = axes;
 }
 
+void OccluderCones::AnglesOfRange(const std::vector<Eigen::Vector3d>& axes, size_t begin, size_t end,
+                                  Eigen::MatrixXf* out, const std::vector<float>* caps) const {
+  SHADOWSG_CHECK(!caps || caps->size() == axes.size());
+  SHADOWSG_CHECK(begin <= end && end <= size());
+  const long np = static_cast<long>(end - begin);
+  const int na = static_cast<int>(axes.size());
+  out->resize(np, na);
+  if (np == 0 || na == 0) return;
+  if (impl_->flat.trees.empty()) {
+    out->setConstant(kInfF);
+    return;
+  }
+  const std::vector<Eigen::Vector3f> unit = UnitAxes(axes);
+  const std::vector<int> order = CoherentAxisOrder(unit);
+#pragma omp parallel
+  {
+    std::vector<StackEntry> stack;
+    stack.reserve(1024);
+#pragma omp for schedule(dynamic, 32)
+    for (long q = 0; q < np; ++q) {
+      const size_t p = begin + static_cast<size_t>(q);
+      if (q + 1 < np) PrefetchTable(impl_->tables[p + 1]);
+      PointAngles({impl_->flat, impl_->tables[p], impl_->points[p].data()}, unit, order, impl_->search, caps, &stack,
+                  &(*out)(q, 0), out->rows(), nullptr);
+    }
+  }
+}
+
 OccluderCones::AngleHints JoinHints(const std::vector<OccluderCones::AngleHints*>& one_axis, size_t points) {
   const size_t na = one_axis.size();
   OccluderCones::AngleHints joined;

@@ -109,6 +109,10 @@ class OccluderCones {
   void Angles(const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* theta,
               std::vector<Eigen::Vector3f>* witness, const std::vector<float>* caps = nullptr,
               AngleHints* hints = nullptr) const;
+  // theta of the points [begin, end) only (rows in that order), without
+  // witnesses or hints: a caller that may stop after a few of the points.
+  void AnglesOfRange(const std::vector<Eigen::Vector3d>& axes, size_t begin, size_t end, Eigen::MatrixXf* theta,
+                     const std::vector<float>* caps = nullptr) const;
 
  private:
   struct Impl;

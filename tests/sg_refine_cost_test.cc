@@ -227,5 +227,47 @@ TEST(RefineCost, CachedShadingMatchesAFreshCost) {
   }
 }
 
+// CostExceeds says yes only where the full cost is above the limit: a step
+// far off (the sun turned 25 degrees, the sky 20x brighter) is shown more
+// costly than the start on a sample of the points, no limit at or above a
+// cost is shown exceeded, and the sample adds the bounce as the residuals
+// do (unfactored and factored form factors).
+TEST(RefineCost, CostExceedsOnlyAboveTheFullCost) {
+  for (double form_tolerance : {-1.0, 0.1}) {
+    SCOPED_TRACE("form tolerance " + std::to_string(form_tolerance));
+    CostInputs in(true, 1.0, form_tolerance);
+    in.model.PrepareCones();
+    const RefineCost cost = in.Cost(false);
+    auto half_cost = [&](const std::vector<SgLobe>& lobes) {
+      double s = 0;
+      for (double r : Residuals(cost, lobes)) s += r * r;
+      return 0.5 * s;
+    };
+    const auto start = Lobes();
+    auto far = start;
+    far[0].axis = Eigen::Vector3d(0.2, 0.35, 0.92).normalized();
+    far[1].amplitude *= 20;
+    const double f_start = half_cost(start), f_far = half_cost(far);
+    ASSERT_GT(f_far, 20 * f_start);
+    EXPECT_TRUE(cost.CostExceeds(far, f_start));
+    EXPECT_FALSE(cost.CostExceeds(far, f_far));
+    EXPECT_FALSE(cost.CostExceeds(start, f_start));
+    // The bounce counts: the same far step without it costs less on the sample.
+    CostInputs direct(false, 1.0);
+    direct.model.PrepareCones();
+    const RefineCost no_bounce = direct.Cost(false);
+    double lo = 0, hi = f_far;  // the smallest limit each is shown above, by bisection
+    auto threshold = [&](const RefineCost& c) {
+      lo = 0, hi = f_far;
+      for (int i = 0; i < 40; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        (c.CostExceeds(far, mid) ? lo : hi) = mid;
+      }
+      return lo;
+    };
+    EXPECT_GT(threshold(cost), threshold(no_bounce));
+  }
+}
+
 }  // namespace
 }  // namespace shadowsg

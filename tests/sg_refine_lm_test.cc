@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 
 #include "sg_test_scene.h"
 
@@ -77,6 +78,39 @@ TEST(RefineByLm, ReturnsToTheLobesThatMadeTheTargets) {
   for (int i = 0; i < 2; ++i) {
     EXPECT_NEAR(lobes[i].axis.norm(), 1, 1e-12);
     EXPECT_LT((lobes[i].amplitude - truth[i].amplitude).norm(), 0.01 * truth[i].amplitude.norm()) << "lobe " << i;
+  }
+}
+
+// Far steps refused on a sample of the points (RefineLmOptions::probe_radius)
+// are the steps a full evaluation refuses: from a start far off, with and
+// without the sample, the same steps are tried, taken and refused, to the
+// same lobes; with it, some are refused on the sample alone.
+TEST(RefineByLm, StepsRefusedOnASampleAreTheSameSteps) {
+  const std::vector<SgLobe> truth = TrueLobes();
+  Problem p(64, truth);
+  p.model.PrepareCones();
+  std::vector<SgLobe> start = truth;
+  start[0].axis = (truth[0].axis + std::tan(8 * M_PI / 180) * TangentBasis(truth[0].axis)[1]).normalized();
+  start[0].sharpness = 10;
+  start[1].amplitude *= 3;
+  RefineLmOptions o;
+  o.max_iterations = 25;
+  std::vector<SgLobe> probed = start, plain = start;
+  const RefineLmSummary a = RefineByLm(RefineCost(p.model, p.weight, p.targets, 2, false), &probed, o);
+  o.probe_radius = std::numeric_limits<double>::infinity();
+  const RefineLmSummary b = RefineByLm(RefineCost(p.model, p.weight, p.targets, 2, false), &plain, o);
+  std::printf("%d steps (%d taken, %d refused on the sample), cost %.3e -> %.3e\n", a.iterations, a.accepted,
+              a.probe_refusals, a.initial_cost, a.final_cost);
+  EXPECT_GT(a.probe_refusals, 0);
+  EXPECT_EQ(b.probe_refusals, 0);
+  EXPECT_EQ(a.iterations, b.iterations);
+  EXPECT_EQ(a.accepted, b.accepted);
+  EXPECT_NEAR(a.final_cost, b.final_cost, 1e-6 * b.final_cost);
+  EXPECT_LT(a.final_cost, 1e-3 * a.initial_cost);
+  for (int i = 0; i < 2; ++i) {
+    EXPECT_LT(AngleDeg(probed[i].axis, plain[i].axis), 1e-4) << "lobe " << i;
+    EXPECT_NEAR(probed[i].sharpness, plain[i].sharpness, 1e-6 * plain[i].sharpness) << "lobe " << i;
+    EXPECT_LT((probed[i].amplitude - plain[i].amplitude).norm(), 1e-6 * plain[i].amplitude.norm()) << "lobe " << i;
   }
 }
 

@@ -218,6 +218,25 @@ TEST(Ssdf, HintsGiveTheSameAnglesAsAFreshSearch) {
   EXPECT_LE(witness_differs, pairs / 200);
 }
 
+// A range of the prepared points gives those rows of the whole call.
+TEST(Ssdf, AnglesOfARangeAreThoseRows) {
+  const auto trees = TestTrees(23);
+  std::mt19937_64 rng(9);
+  const auto points = TestPoints(rng, 120);
+  const OccluderCones cones(trees, points);
+  const std::vector<Eigen::Vector3d> axes = {Eigen::Vector3d(0.3, 0.1, 1).normalized(),
+                                            Eigen::Vector3d(-0.6, 0.2, 0.7).normalized()};
+  const std::vector<float> caps = {0.3f, 2.0f};
+  Eigen::MatrixXf all, part;
+  cones.Angles(axes, &all, nullptr, &caps);
+  cones.AnglesOfRange(axes, 37, 90, &part, &caps);
+  ASSERT_EQ(part.rows(), 53);
+  ASSERT_EQ(part.cols(), 2);
+  EXPECT_EQ(part, all.middleRows(37, 53));
+  cones.AnglesOfRange(axes, 120, 120, &part, &caps);
+  EXPECT_EQ(part.rows(), 0);
+}
+
 TEST(Ssdf, PerAxisHintsJoinAndSplit) {
   // A solver keeps one-axis hints per lobe and searches its lobes together;
   // lobes come and go between calls (a fresh one joins without hints).
