@@ -853,7 +853,20 @@ size_t OccluderCones::size() const { return impl_ ? impl_->tables.size() : 0; }
 void OccluderCones::Angles(const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* out,
                            std::vector<Eigen::Vector3f>* witness, const std::vector<float>* caps,
                            AngleHints* hints) const {
+  Search(axes, 0, size(), out, witness, caps, hints);
+}
+
+void OccluderCones::AnglesOfRange(const std::vector<Eigen::Vector3d>& axes, size_t begin, size_t end,
+                                  Eigen::MatrixXf* out, const std::vector<float>* caps) const {
+  SHADOWSG_CHECK(begin <= end && end <= size());
+  Search(axes, begin, end, out, nullptr, caps, nullptr);
+}
+
+void OccluderCones::Search(const std::vector<Eigen::Vector3d>& axes, size_t begin, size_t end, Eigen::MatrixXf* out,
+                           std::vector<Eigen::Vector3f>* witness, const std::vector<float>* caps,
+                           AngleHints* hints) const {
   SHADOWSG_CHECK(!caps || caps->size() == axes.size());
+  SHADOWSG_CHECK(!hints || (begin == 0 && end == size()));
   // Hints made for another number of axes or points, or for the coarse-to-fine
   // search, say nothing about this call: start afresh.
   if (hints && (hints->axes.size() != axes.size() || hints->leaf.size() != size() * axes.size() ||
@@ -866,7 +879,7 @@ void OccluderCones::Angles(const std::vector<Eigen::Vector3d>& axes, Eigen::Matr
   for (size_t a = 0; hints && a < hints->axes.size(); ++a)
     drift[a] = static_cast<float>(std::atan2(hints->axes[a].normalized().cross(axes[a].normalized()).norm(),
                                              hints->axes[a].normalized().dot(axes[a].normalized())));
-  const long np = static_cast<long>(impl_->tables.size());
+  const long np = static_cast<long>(end - begin);
   const int na = static_cast<int>(axes.size());
   out->resize(np, na);
   if (witness) witness->assign(static_cast<size_t>(np) * na, Eigen::Vector3f::Zero());
@@ -883,44 +896,15 @@ void OccluderCones::Angles(const std::vector<Eigen::Vector3d>& axes, Eigen::Matr
     std::vector<StackEntry> stack;
     stack.reserve(1024);
 #pragma omp for schedule(dynamic, 32)
-    for (long p = 0; p < np; ++p) {
-      if (p + 1 < np) PrefetchTable(impl_->tables[p + 1]);
+    for (long q = 0; q < np; ++q) {
+      const size_t p = begin + static_cast<size_t>(q), at = static_cast<size_t>(q) * na;
+      if (q + 1 < np) PrefetchTable(impl_->tables[p + 1]);
       PointAngles({impl_->flat, impl_->tables[p], impl_->points[p].data()}, unit, order, impl_->search, caps, &stack,
-                  &(*out)(p, 0), out->rows(),
-                  witness ? &(*witness)[static_cast<size_t>(p) * na] : nullptr,
-                  hints ? &hints->leaf[static_cast<size_t>(p) * na] : nullptr,
-                  hints ? &hints->floor[static_cast<size_t>(p) * na] : nullptr, drift.data());
+                  &(*out)(q, 0), out->rows(), witness ? &(*witness)[at] : nullptr,
+                  hints ? &hints->leaf[at] : nullptr, hints ? &hints->floor[at] : nullptr, drift.data());
     }
   }
   if (hints) hints->axes = axes;
-}
-
-void OccluderCones::AnglesOfRange(const std::vector<Eigen::Vector3d>& axes, size_t begin, size_t end,
-                                  Eigen::MatrixXf* out, const std::vector<float>* caps) const {
-  SHADOWSG_CHECK(!caps || caps->size() == axes.size());
-  SHADOWSG_CHECK(begin <= end && end <= size());
-  const long np = static_cast<long>(end - begin);
-  const int na = static_cast<int>(axes.size());
-  out->resize(np, na);
-  if (np == 0 || na == 0) return;
-  if (impl_->flat.trees.empty()) {
-    out->setConstant(kInfF);
-    return;
-  }
-  const std::vector<Eigen::Vector3f> unit = UnitAxes(axes);
-  const std::vector<int> order = CoherentAxisOrder(unit);
-#pragma omp parallel
-  {
-    std::vector<StackEntry> stack;
-    stack.reserve(1024);
-#pragma omp for schedule(dynamic, 32)
-    for (long q = 0; q < np; ++q) {
-      const size_t p = begin + static_cast<size_t>(q);
-      if (q + 1 < np) PrefetchTable(impl_->tables[p + 1]);
-      PointAngles({impl_->flat, impl_->tables[p], impl_->points[p].data()}, unit, order, impl_->search, caps, &stack,
-                  &(*out)(q, 0), out->rows(), nullptr);
-    }
-  }
 }
 
 OccluderCones::AngleHints JoinHints(const std::vector<OccluderCones::AngleHints*>& one_axis, size_t points) {

@@ -115,6 +115,10 @@ class OccluderCones {
                      const std::vector<float>* caps = nullptr) const;
 
  private:
+  // Angles over the points [begin, end) (hints: the whole range only).
+  void Search(const std::vector<Eigen::Vector3d>& axes, size_t begin, size_t end, Eigen::MatrixXf* theta,
+              std::vector<Eigen::Vector3f>* witness, const std::vector<float>* caps, AngleHints* hints) const;
+
   struct Impl;
   std::shared_ptr<Impl> impl_;
 };
