@@ -48,6 +48,20 @@ void RefineCost::SetHints(int lobe, OccluderCones::AngleHints hints) { cache_.at
 
 const OccluderCones::AngleHints& RefineCost::Hints(int lobe) const { return cache_.at(lobe).hints; }
 
+namespace {
+
+// The axes and sharpness (times exp(log_step)) of the lobes `which`.
+std::pair<std::vector<Eigen::Vector3d>, std::vector<double>> Pick(const std::vector<Eigen::Vector3d>& axes,
+                                                                  const std::vector<double>& lambda,
+                                                                  const std::vector<int>& which, double log_step) {
+  std::vector<Eigen::Vector3d> a;
+  std::vector<double> l;
+  for (int i : which) a.push_back(axes[i]), l.push_back(lambda[i] * std::exp(log_step));
+  return {a, l};
+}
+
+}  // namespace
+
 void RefineCost::Update(const std::vector<Eigen::Vector3d>& axes, const std::vector<double>& lambda,
                         bool derivatives, bool need_dbounce) const {
   std::vector<int> stale, need_product;
@@ -70,14 +84,8 @@ void RefineCost::Update(const std::vector<Eigen::Vector3d>& axes, const std::vec
     cache_[i].product = EvalProductLobe(axes[i], lambda[i], model_.normal, model_.cosine, derivatives);
     cache_[i].product_derivatives = derivatives;
   }
-  auto pick = [&](const std::vector<int>& which, double log_step) {
-    std::vector<Eigen::Vector3d> a;
-    std::vector<double> l;
-    for (int i : which) a.push_back(axes[i]), l.push_back(lambda[i] * std::exp(log_step));
-    return std::make_pair(a, l);
-  };
   if (!stale.empty() && !model_.exact) {
-    const auto [a, l] = pick(stale, 0);
+    const auto [a, l] = Pick(axes, lambda, stale, 0);
     std::vector<float> caps;
     for (int i : stale) caps.push_back(VisibilityCap(cache_[i].product));
     Eigen::MatrixXf theta;
@@ -112,18 +120,12 @@ void RefineCost::UpdateBounce(const std::vector<Eigen::Vector3d>& axes, const st
     }
     if (need_dbounce && c.dbounce[0].size() == 0) no_dbounce.push_back(i);
   }
-  auto pick = [&](const std::vector<int>& which, double log_step) {
-    std::vector<Eigen::Vector3d> a;
-    std::vector<double> l;
-    for (int i : which) a.push_back(axes[i]), l.push_back(lambda[i] * std::exp(log_step));
-    return std::make_pair(a, l);
-  };
   // The casters' bounce, and its log-sharpness derivative by a forward
   // difference (see the header).
   constexpr double kStep = 0.02;
   const bool lazy = model_.HasBounceForm();
   if (!stale.empty()) {
-    const auto [a, l] = pick(stale, 0);
+    const auto [a, l] = Pick(axes, lambda, stale, 0);
     std::vector<OccluderCones::AngleHints> ground_hints;
     for (int i : stale) ground_hints.push_back(std::move(cache_[i].ground_hints));
     const std::array<Eigen::MatrixXf, 3> irradiance = BounceIrradiance(model_, a, l, &ground_hints);
@@ -160,7 +162,7 @@ void RefineCost::UpdateBounce(const std::vector<Eigen::Vector3d>& axes, const st
     }
   }
   if (!no_dbounce.empty()) {
-    const auto [a, l] = pick(no_dbounce, kStep);
+    const auto [a, l] = Pick(axes, lambda, no_dbounce, kStep);
     const std::array<Eigen::MatrixXf, 3> b = BounceLobeShadingRgb(model_, BounceIrradiance(model_, a, l));
     for (size_t s = 0; s < no_dbounce.size(); ++s) {
       LobeCache& c = cache_[no_dbounce[s]];
