@@ -529,9 +529,17 @@ struct FitRun {
   bool done = false;
 };
 
+// The casters' irradiance from each dictionary atom (BounceIrradiance): it
+// depends on the casters and the ground around them, not on the fit pixels,
+// so every restart's dictionary shares one (computed by the first that needs it).
+struct AtomBounce {
+  std::array<Eigen::MatrixXf, 3> irradiance;
+  bool ready = false;
+};
+
 FitRun StartFit(const FitData& d, bool bounce, const ShadowPlaneModel& hold_model,
                 const std::vector<Eigen::Vector3f>& hold_targets, const std::vector<Eigen::Vector3d>& axes,
-                const SgSolverOptions& o, ProgressFn progress) {
+                const SgSolverOptions& o, AtomBounce* atom_bounce, ProgressFn progress) {
   FitRun run;
   run.d = &d;
   run.fit_model = bounce ? &d.model : &d.direct;
@@ -552,10 +560,14 @@ FitRun StartFit(const FitData& d, bool bounce, const ShadowPlaneModel& hold_mode
     // The casters' bounce of each atom, with the patches' albedo averaged
     // over the channels (the dictionary only starts the fit; the refinement
     // and every render use each channel's).
-    std::vector<Eigen::Vector3d> atom_axes;
-    std::vector<double> atom_sharpness;
-    for (const Atom& a : atoms) atom_axes.push_back(axes[a.axis]), atom_sharpness.push_back(a.lambda);
-    G += BounceLobeShading(fit_model, BounceIrradiance(fit_model, atom_axes, atom_sharpness));
+    if (!atom_bounce->ready) {
+      std::vector<Eigen::Vector3d> atom_axes;
+      std::vector<double> atom_sharpness;
+      for (const Atom& a : atoms) atom_axes.push_back(axes[a.axis]), atom_sharpness.push_back(a.lambda);
+      atom_bounce->irradiance = BounceIrradiance(fit_model, atom_axes, atom_sharpness);
+      atom_bounce->ready = true;
+    }
+    G += BounceLobeShading(fit_model, atom_bounce->irradiance);
   }
   const Eigen::VectorXf wmean = W.rowwise().mean();
   // Column norms under the mean weight, for the selection score.
@@ -891,6 +903,7 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   // not fitted again; where that race was close, every restart races.
   std::vector<char> entered(nv, 1);
   std::vector<int> entries(nv, 0);
+  AtomBounce atom_bounce;
   for (int r = 0; r < o.restarts; ++r) {
     const FitSet set = SampleFit(model, targets, ho.rest, o, rng);
     for (size_t i : set.fit) fitted[i] = 1;
@@ -908,7 +921,7 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
           if (nv > 1) what += std::string(what.empty() ? "" : ", ") + (has_bounce(v) ? "with bounce" : "direct");
           progress((index + f) / runs, what.empty() ? status : what + ": " + status);
         };
-      run[v] = StartFit(data, has_bounce(v), hold_for(v), hold_targets, axes, o, sub);
+      run[v] = StartFit(data, has_bounce(v), hold_for(v), hold_targets, axes, o, &atom_bounce, sub);
     }
     // The models' size paths step side by side; one whose best held-out
     // error trails the other's far enough (BounceRaceDrops) stops (this
