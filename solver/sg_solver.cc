@@ -4,8 +4,11 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <exception>
 #include <numeric>
 #include <random>
+
+#include <omp.h>
 
 #include "calib/error.h"
 #include "solver/sg_paper_solver.h"
@@ -895,39 +898,56 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   // draws), and the shared held-out set tells the better one.
   std::vector<std::vector<FitResult>> fits(nv);
   std::vector<double> best_seen(nv, std::numeric_limits<double>::infinity());  // per model, over restarts
-  const int runs = o.restarts * static_cast<int>(nv);
   std::vector<char> fitted(model.points.size(), 0);  // in some restart's fit set
-  std::vector<FitData> sets;  // every restart's fit pixels as prepared (dictionary dropped), for the pool
-  sets.reserve(static_cast<size_t>(o.restarts));
+  // Every restart's fit pixels as prepared (dictionary dropped), for the pool.
+  std::vector<FitData> sets(static_cast<size_t>(o.restarts));
   // A model that clearly lost the first restart's race (BounceRaceDrops) is
   // not fitted again; where that race was close, every restart races.
   std::vector<char> entered(nv, 1);
   std::vector<int> entries(nv, 0);
   AtomBounce atom_bounce;
+  // Every restart's draw first (the draws alone use rng, in restart order).
+  std::vector<FitSet> draws;
   for (int r = 0; r < o.restarts; ++r) {
-    const FitSet set = SampleFit(model, targets, ho.rest, o, rng);
-    for (size_t i : set.fit) fitted[i] = 1;
-    sets.push_back(PrepareFit(model, targets, set, axes, o));
-    const FitData& data = sets.back();
+    draws.push_back(SampleFit(model, targets, ho.rest, o, rng));
+    for (size_t i : draws.back().fit) fitted[i] = 1;
+  }
+  // The restarts up to 98 %, then their pool and judging.
+  ProgressShares shares(progress, static_cast<size_t>(o.restarts), 0.98);
+
+  // One restart: its models' size paths race, the survivors finish.
+  struct Outcome {
+    std::vector<char> entered, racing;  // per model: started, and still in at the end
+    std::vector<double> raced;          // per model: the best held-out error seen
+    std::vector<FitResult> fits;        // the finished ones, in model order
+  };
+  auto run_restart = [&](int r, const std::vector<char>& enter) {
+    sets[r] = PrepareFit(model, targets, draws[r], axes, o);
+    const FitData& data = sets[r];
+    Outcome out;
+    out.entered = enter;
     std::vector<FitRun> run(nv);
+    const double models = static_cast<double>(std::count(enter.begin(), enter.end(), 1));
+    double place = 0;  // of the model among those entered
     for (size_t v = 0; v < nv; ++v) {
-      if (!entered[v]) continue;
-      ++entries[v];
-      const int index = r * static_cast<int>(nv) + static_cast<int>(v);
+      if (!enter[v]) continue;
       ProgressFn sub;
       if (progress)
-        sub = [&, index, r, v](double f, const std::string& status) {
+        sub = [&, r, v, place](double f, const std::string& status) {
           std::string what = o.restarts > 1 ? "fit " + std::to_string(r + 1) + "/" + std::to_string(o.restarts) : "";
           if (nv > 1) what += std::string(what.empty() ? "" : ", ") + (has_bounce(v) ? "with bounce" : "direct");
-          progress((index + f) / runs, what.empty() ? status : what + ": " + status);
+          shares.Report(static_cast<size_t>(r), (place + f) / models, what.empty() ? status : what + ": " + status);
         };
+      ++place;
       run[v] = StartFit(data, has_bounce(v), hold_for(v), hold_targets, axes, o, &atom_bounce, sub);
     }
     // The models' size paths step side by side; one whose best held-out
     // error trails the other's far enough (BounceRaceDrops) stops (this
     // restart only).
-    std::vector<char> racing = entered;
-    std::vector<double> raced(nv, std::numeric_limits<double>::infinity());
+    out.racing = enter;
+    out.raced.assign(nv, std::numeric_limits<double>::infinity());
+    std::vector<char>& racing = out.racing;
+    std::vector<double>& raced = out.raced;
     while (std::count(racing.begin(), racing.end(), 1) > 1) {
       bool stepped = false;
       for (size_t v = 0; v < nv; ++v)
@@ -947,16 +967,55 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
       for (size_t v = 0; v < nv; ++v)
         if (BounceRaceDrops(run[v].path.size(), run[1 - v].path.size(), raced[v], raced[1 - v], /*paths_ended=*/true))
           racing[v] = 0;
-    for (size_t v = 0; v < nv; ++v) {
+    for (size_t v = 0; v < nv; ++v)
       if (racing[v]) {
-        fits[v].push_back(FinishFit(std::move(run[v]), signal, o));
-        raced[v] = std::min(raced[v], fits[v].back().heldout_mse);
+        out.fits.push_back(FinishFit(std::move(run[v]), signal, o));
+        raced[v] = std::min(raced[v], out.fits.back().heldout_mse);
       }
-      best_seen[v] = std::min(best_seen[v], raced[v]);
+    shares.Done(static_cast<size_t>(r));
+    sets[r].G = Eigen::MatrixXf();
+    return out;
+  };
+  auto keep = [&](Outcome&& out) {
+    auto f = out.fits.begin();
+    for (size_t v = 0; v < nv; ++v) {
+      entries[v] += out.entered[v];
+      if (out.racing[v]) fits[v].push_back(std::move(*f++));
+      best_seen[v] = std::min(best_seen[v], out.raced[v]);
     }
-    if (o.bounce_race_once && r == 0) entered = racing;
-    sets.back().G = Eigen::MatrixXf();
+  };
+
+  Outcome first = run_restart(0, entered);
+  if (o.bounce_race_once) entered = first.racing;
+  keep(std::move(first));
+  // The later restarts depend on the first one only (the race it decided,
+  // the atoms' bounce it computed; StartFit computes that only while it is
+  // not ready, so every model's first start must be the first restart's).
+  // As many as there are threads run side by side, one thread each, where
+  // that makes two or more: two single-thread fits on two cores ran 2.4 s
+  // each where one fit took 1.5-1.6 s on both (fast, pub_torus_sunrise).
+  // Those that are left over run one after another on every thread (`best`'s
+  // fifth later restart ran alone on one thread: no faster than before).
+  // A fit on one thread is the same as with --threads 1.
+  const int later = o.restarts - 1, threads = omp_get_max_threads();
+  const int side_by_side = threads >= 2 && !omp_in_parallel() ? later - later % threads : 0;
+  std::vector<Outcome> outcomes(static_cast<size_t>(std::max(0, later)));
+  if (side_by_side > 0) {
+    SHADOWSG_CHECK(!model.bounce || atom_bounce.ready || !entered[nv - 1]);
+    std::vector<std::exception_ptr> failed(static_cast<size_t>(side_by_side));
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
+    for (int r = 1; r <= side_by_side; ++r) {
+      try {
+        outcomes[r - 1] = run_restart(r, entered);
+      } catch (...) {
+        failed[r - 1] = std::current_exception();
+      }
+    }
+    for (const std::exception_ptr& e : failed)
+      if (e) std::rethrow_exception(e);
   }
+  for (int r = side_by_side + 1; r < o.restarts; ++r) outcomes[r - 1] = run_restart(r, entered);
+  for (Outcome& out : outcomes) keep(std::move(out));
   // Each model's restarts pooled: one more finished fit, judged with them.
   std::vector<char> pooled(nv, 0);
   if (o.pool_restarts)

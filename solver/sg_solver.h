@@ -142,6 +142,8 @@ struct SgSolverSummary {
   std::vector<double> bounce_heldout_mse;   // choose_bounce: best held-out MSE without, then with, the bounce (a model that
                                             // dropped out of the race: the best of its size path)
   std::vector<int> bounce_race_entries;     // choose_bounce: restarts each model was fitted in (bounce_race_once)
+  // Each part's time summed over the fits (later restarts run side by side,
+  // so the parts may add up to more than `seconds`, the solve's wall time).
   double theta_seconds = 0, select_seconds = 0, refine_seconds = 0, seconds = 0;
 };
 
