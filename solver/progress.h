@@ -30,7 +30,7 @@ class ProgressShares {
     const double mean = Update(part, fraction);
     if (fn_) fn_(span_ * mean, status);
   }
-  // A part finished (or skipped) without a last report.
+  // A part finished without a last report.
   void Done(size_t part) {
     std::lock_guard<std::mutex> lock(mutex_);
     Update(part, 1.0);

@@ -171,7 +171,7 @@ TEST(SgSolver, LaterRestartsRunSideBySideOnOneThreadEach) {
   SgSolverSummary two;
   std::vector<double> fractions;
   std::atomic<int> inside{0};
-  bool overlapped = false;
+  std::atomic<bool> overlapped{false};
   const ProgressFn progress = [&](double f, const std::string&) {
     if (inside.fetch_add(1) != 0) overlapped = true;
     fractions.push_back(f);
@@ -215,8 +215,8 @@ TEST(SgSolver, FinishedFitsAreJudgedOnMorePixelsThanTheHeldOutSet) {
   // The judged error of the kept fit estimates its error on the image. It
   // leaves out the fit pixels, drawn towards the shadows where the error
   // is, and the fit's error there: with 1800 of 4096 pixels fitted it read
-  // 0.44x here with every restart on two threads, 1.52x on one (the
-  // restarts' rounding moves a fit to another minimum).
+  // 0.44x here when the later restarts ran on two threads, 1.52x on one, as
+  // they now run (their rounding moves a fit to another minimum).
   double se = 0;
   const std::vector<Eigen::Vector3f> render = RenderShadowPlane(model, est);
   for (size_t k = 0; k < render.size(); ++k) se += (render[k] - targets[k]).cast<double>().squaredNorm();
