@@ -94,6 +94,9 @@ constexpr double kMaxSharpness = 5000;
 constexpr double kNegligibleLight = 1e-4;
 constexpr double kSizeNoiseFloor = 1e-6;
 
+// sigmoid(z) is 1 in float beyond this (1 - e^-17 rounds to 1).
+constexpr double kFloatSaturation = 17.0;
+
 // Importance of a pixel for the fit: 1 on the lit plane, up to
 // kShadowEmphasis in full shadow (relative drop below the lit level).
 constexpr double kShadowEmphasis = 4.0;
@@ -481,7 +484,7 @@ FitData PrepareFit(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   d.targets = Gather(targets, sets.fit);
   d.weight = sets.weight;
   Eigen::MatrixXf theta_fit;
-  if (!model.exact) d.model.cones.Angles(axes, &theta_fit, nullptr);
+  if (!model.exact) theta_fit = DictionaryAngles(d.model, axes, o.sharpness);
   d.theta_seconds = Since(t0);
 
   // Dictionary matrix G (fit pixels x atoms), per unit amplitude and albedo/pi.
@@ -826,6 +829,34 @@ FitResult PoolFits(const std::vector<FitData>& sets, bool bounce, const std::vec
 }
 
 }  // namespace
+
+Eigen::MatrixXf DictionaryAngles(const ShadowPlaneModel& fit, const std::vector<Eigen::Vector3d>& axes,
+                                 const std::vector<double>& sharpness) {
+  SHADOWSG_CHECK(fit.HasCones() && !sharpness.empty());
+  Eigen::MatrixXf theta;
+  const double flattest = *std::min_element(sharpness.begin(), sharpness.end());
+  std::vector<float> caps(axes.size(), 0.0f);
+  bool capped = false;
+  for (size_t a = 0; a < axes.size(); ++a)
+    for (double l : sharpness)
+      if (l > flattest) {
+        const ProductLobe p = EvalProductLobe(axes[a], l, fit.normal, fit.cosine, /*derivatives=*/false);
+        caps[a] = std::max(caps[a], static_cast<float>(kFloatSaturation / VisibilitySteepness(p.lambda_prime)));
+        capped = true;
+      }
+  if (!capped) {  // one sharpness value: it needs theta everywhere
+    fit.cones.Angles(axes, &theta, nullptr);
+    return theta;
+  }
+  OccluderCones::AngleHints hints;
+  fit.cones.Angles(axes, &theta, nullptr, &caps, &hints);
+  for (long p = 0; p < theta.rows(); ++p)
+    for (long a = 0; a < theta.cols(); ++a) {
+      const size_t at = static_cast<size_t>(p) * axes.size() + static_cast<size_t>(a);
+      if (hints.leaf[at] == OccluderCones::kNoLeaf) theta(p, a) = std::max(theta(p, a), hints.floor[at]);
+    }
+  return theta;
+}
 
 std::vector<SgLobe> OrderByElimination(const ShadowPlaneModel& model, const std::vector<double>& weight,
                                        const std::vector<Eigen::Vector3f>& targets, const std::vector<SgLobe>& lobes) {

@@ -374,6 +374,52 @@ TEST(SgSolver, BounceRaceDropsOnlyAClearLoser) {
   EXPECT_FALSE(BounceRaceDrops(6, 9, 1.0, 1.09, /*paths_ended=*/true));
 }
 
+// The dictionary's theta stops where every atom but the flattest is fully
+// visible: those atoms shade exactly as with the full search, the flattest
+// ones nearly so, and the values there are lower bounds of theta.
+TEST(SgSolver, DictionaryAnglesStopWhereOnlyTheFlattestAtomsStillSeeTheShadow) {
+  ShadowPlaneModel model = SgTestModel(32);
+  model.cap_occlusion = true;
+  model.occluder_cos = OccluderConeCosines(model.occluders, model.points);
+  model.PrepareCones();
+  const std::vector<Eigen::Vector3d> axes = FibonacciHemisphereAxes(160, model.normal);
+  const std::vector<double> sharpness = {0.5, 4, 15, 60, 250};
+  Eigen::MatrixXf exact;
+  model.cones.Angles(axes, &exact, nullptr);
+  const Eigen::MatrixXf theta = DictionaryAngles(model, axes, sharpness);
+  ASSERT_EQ(theta.rows(), exact.rows());
+  ASSERT_EQ(theta.cols(), exact.cols());
+
+  std::vector<ProductLobe> lobes;  // [a * sharpness + s]
+  for (const Eigen::Vector3d& axis : axes)
+    for (double l : sharpness) lobes.push_back(EvalProductLobe(axis, l, model.normal, model.cosine, false));
+  size_t stopped = 0;
+  std::vector<double> worst(sharpness.size(), 0), largest(sharpness.size(), 0);
+  for (long p = 0; p < exact.rows(); ++p)
+    for (long a = 0; a < exact.cols(); ++a) {
+      ASSERT_LE(theta(p, a), exact(p, a) + 1e-5f) << p << " " << a;
+      if (std::abs(theta(p, a) - exact(p, a)) > 1e-5f) ++stopped;
+      for (size_t s = 0; s < sharpness.size(); ++s) {
+        const ProductLobe& lobe = lobes[a * sharpness.size() + s];
+        const float full = static_cast<float>(ShadeLobe(lobe, exact(p, a), Eigen::Vector3d::Zero(), model.occluder_cos[p]).value);
+        const float fast = static_cast<float>(ShadeLobe(lobe, theta(p, a), Eigen::Vector3d::Zero(), model.occluder_cos[p]).value);
+        worst[s] = std::max(worst[s], static_cast<double>(std::abs(full - fast)));
+        largest[s] = std::max(largest[s], static_cast<double>(full));
+      }
+    }
+  // The search stopped early for a real share of the pairs (the saving).
+  EXPECT_GT(stopped, static_cast<size_t>(exact.size() / 10));
+  // Every atom but the flattest: the same float shading (an ulp).
+  for (size_t s = 1; s < sharpness.size(); ++s) EXPECT_LE(worst[s], 1.2e-7 * largest[s]) << sharpness[s];
+  // The flattest: close, not equal.
+  EXPECT_GT(worst[0], 0.0);
+  EXPECT_LT(worst[0], 0.05 * largest[0]);
+
+  // One sharpness value needs theta everywhere.
+  const Eigen::MatrixXf one = DictionaryAngles(model, axes, {4.0});
+  EXPECT_LE((one - exact).cwiseAbs().maxCoeff(), 1e-6f);
+}
+
 TEST(SgPaper, ReducesLossPrunesAndIsDeterministic) {
   ShadowPlaneModel model = TestPlaneModel(32, CosineModel::kSgProduct);
   const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, Cases()[0].truth);
