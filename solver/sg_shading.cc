@@ -48,8 +48,17 @@ LobeShading ShadeLobe(const ProductLobe& p, double theta, const Eigen::Vector3d&
     return s;
   }
   const double k = VisibilitySteepness(p.lambda_prime);
-  const double dk = VisibilitySteepnessDerivative(p.lambda_prime);
   const double z = k * theta;
+  // Saturated: most (point, lobe) pairs of a sharp lobe, whose shadow covers
+  // little of the plane. The terms dropped are 1e-13 of those kept.
+  if (z >= kSigmoidSaturation) {
+    s.sigma = 1;
+    s.value = p.scale;
+    s.dvalue_dlambda = p.dscale_dlambda;
+    s.dvalue_dmu = p.dscale_dmu;
+    return s;
+  }
+  const double dk = VisibilitySteepnessDerivative(p.lambda_prime);
   s.sigma = z >= 0 ? 1 / (1 + std::exp(-z)) : std::exp(z) / (1 + std::exp(z));
   const double dsig_dz = s.sigma * (1 - s.sigma);
   if (occluder_cos < -1) {

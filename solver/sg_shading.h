@@ -22,6 +22,12 @@ inline constexpr double kVisibilityK0 = 0.067;
 // ShadeLobe's occluder_cos meaning "no cap" (the paper's visibility).
 inline constexpr double kNoOcclusionCap = -2.0;
 
+// sigmoid(z) = 1 - 9e-14 at z = 30: beyond, a lobe is fully visible (its
+// shading is its unoccluded integral, to 1e-13 relative; ShadeLobe returns
+// that without the sigmoid and the occluder cap's exponentials, and the
+// occluder searches stop there: VisibilityCap).
+inline constexpr double kSigmoidSaturation = 30.0;
+
 inline double VisibilitySteepness(double x) {
   return ((kVisibilityK3 * x + kVisibilityK2) * x + kVisibilityK1) * x + kVisibilityK0;
 }

@@ -33,9 +33,6 @@ std::vector<size_t> ActiveLobes(const ShadowPlaneModel& model, const SgLighting&
 
 }  // namespace
 
-// sigmoid(z) = 1 - 9e-14 at z = 30: beyond, the lobe is fully visible.
-constexpr double kSigmoidSaturation = 30.0;
-
 float VisibilityCap(const ProductLobe& product) {
   return static_cast<float>(kSigmoidSaturation / VisibilitySteepness(product.lambda_prime));
 }

@@ -154,6 +154,33 @@ TEST(SgShading, LobeShadingDerivativesThroughTheta) {
   EXPECT_EQ(checked, 24);
 }
 
+// Past the sigmoid's saturation ShadeLobe returns the unoccluded integral
+// without evaluating the sigmoid: no step where it starts, with and without
+// the occluder cap.
+TEST(SgShading, SaturatedVisibilityJoinsTheSigmoidWithoutAStep) {
+  const Eigen::Vector3d n = Eigen::Vector3d::UnitZ();
+  int checked = 0;
+  for (double lambda : {0.5, 8.0, 250.0})
+    for (double occluder_cos : {kNoOcclusionCap, 0.9, 0.2}) {
+      const ProductLobe p = EvalProductLobe(Eigen::Vector3d(0.3, -0.2, 0.9).normalized(), lambda, n, CosineModel::kExact);
+      const double at = kSigmoidSaturation / VisibilitySteepness(p.lambda_prime);
+      const Eigen::Vector3d dtheta(0.4, -1.1, 0.2);
+      const LobeShading below = ShadeLobe(p, at * (1 - 1e-9), dtheta, occluder_cos);
+      const LobeShading past = ShadeLobe(p, at * (1 + 1e-9), dtheta, occluder_cos);
+      EXPECT_EQ(past.value, p.scale);
+      EXPECT_EQ(past.dvalue_dlambda, p.dscale_dlambda);
+      EXPECT_LT(std::abs(below.value - past.value), 1e-12 * p.scale) << lambda << " " << occluder_cos;
+      EXPECT_LT(std::abs(below.dvalue_dlambda - past.dvalue_dlambda), 1e-9 * (std::abs(p.dscale_dlambda) + p.scale));
+      // What is left of the sigmoid's slope there is 1e-13 of its steepest.
+      const double k = VisibilitySteepness(p.lambda_prime);
+      EXPECT_LT((below.dvalue_dmu - past.dvalue_dmu).norm(), 1e-12 * (p.dscale_dmu.norm() + p.scale * k * dtheta.norm()));
+      // Short of saturation the sigmoid still acts.
+      EXPECT_LT(ShadeLobe(p, 0.5 * at, dtheta, occluder_cos).value, p.scale);
+      ++checked;
+    }
+  EXPECT_EQ(checked, 9);
+}
+
 // MseAndGradient assembles the per-lobe derivatives; theta is single
 // precision there, so the check is looser than the double-precision ones.
 TEST(ShadowPlane, MseGradientMatchesFiniteDifferences) {
