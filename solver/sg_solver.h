@@ -186,15 +186,15 @@ SgLighting PoolLobes(const ShadowPlaneModel& model, const std::vector<double>& w
 
 // theta of the dictionary's axes at a fit set's points (prepared cones), for
 // its atoms of the given sharpness values: points x axes. Every atom but the
-// flattest saturates (visibility 1 in float) within 0.5-1.2 rad of an
-// occluder, so the search stops at the cap of an axis's second-flattest atom
-// (OccluderCones::Angles's caps): 0.55 -> 0.24 s a restart's 6000 pixels x
-// 160 axes on one thread (pub_torus_interior). Where it stopped, the value is
-// the search's lower bound on theta (its floor), at or above the cap: exact
-// for every atom but the flattest, whose shading there is off by 0.02 % of
-// the dictionary on average and at most 3.5 % of a column's largest entry
-// (the four development scenes), inside the sparse start only: the
-// refinements search theta exactly.
+// flattest saturates (visibility within an ulp of 1 in float) within 0.5-1.2
+// rad of an occluder, so the search stops at the cap of an axis's second-
+// flattest atom (OccluderCones::Angles's caps): 0.55 -> 0.24 s a restart's 6000
+// pixels x 160 axes on one thread (pub_torus_interior). Where it stopped, the
+// value is the search's lower bound on theta (its floor), at or above the cap:
+// the same float shading, to an ulp, for every atom but the flattest, whose
+// shading there is off by 0.02 % of the dictionary on average and at most 3.5 %
+// of a column's largest entry (the four development scenes), inside the sparse
+// start only: the refinements search theta exactly.
 Eigen::MatrixXf DictionaryAngles(const ShadowPlaneModel& fit, const std::vector<Eigen::Vector3d>& axes,
                                  const std::vector<double>& sharpness);
 
