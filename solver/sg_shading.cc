@@ -40,18 +40,12 @@ ProductLobe EvalProductLobe(const Eigen::Vector3d& mu, double lambda, const Eige
 
 LobeShading ShadeLobe(const ProductLobe& p, double theta, const Eigen::Vector3d& dtheta_dmu, double occluder_cos) {
   LobeShading s;
-  if (!std::isfinite(theta)) {  // no occluder at all: fully visible
-    s.sigma = 1;
-    s.value = p.scale;
-    s.dvalue_dlambda = p.dscale_dlambda;
-    s.dvalue_dmu = p.dscale_dmu;
-    return s;
-  }
   const double k = VisibilitySteepness(p.lambda_prime);
   const double z = k * theta;
-  // Saturated: most (point, lobe) pairs of a sharp lobe, whose shadow covers
-  // little of the plane. The terms dropped are 1e-13 of those kept.
-  if (z >= kSigmoidSaturation) {
+  // Fully visible: no occluder at all, or the sigmoid saturated (most (point,
+  // lobe) pairs of a sharp lobe, whose shadow covers little of the plane; the
+  // terms dropped are 1e-13 of those kept).
+  if (!std::isfinite(theta) || z >= kSigmoidSaturation) {
     s.sigma = 1;
     s.value = p.scale;
     s.dvalue_dlambda = p.dscale_dlambda;
