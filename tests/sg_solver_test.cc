@@ -375,7 +375,7 @@ TEST(SgSolver, BounceRaceDropsOnlyAClearLoser) {
 }
 
 // The dictionary's theta stops where every atom but the flattest is fully
-// visible: those atoms shade exactly as with the full search, the flattest
+// visible: those atoms shade as with the full search (to an ulp), the flattest
 // ones nearly so, and the values there are lower bounds of theta.
 TEST(SgSolver, DictionaryAnglesStopWhereOnlyTheFlattestAtomsStillSeeTheShadow) {
   ShadowPlaneModel model = SgTestModel(32);
