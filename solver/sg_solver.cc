@@ -842,7 +842,7 @@ Eigen::MatrixXf DictionaryAngles(const ShadowPlaneModel& fit, const std::vector<
     for (double l : sharpness)
       if (l > flattest) {
         const ProductLobe p = EvalProductLobe(axes[a], l, fit.normal, fit.cosine, /*derivatives=*/false);
-        caps[a] = std::max(caps[a], static_cast<float>(kFloatSaturation / VisibilitySteepness(p.lambda_prime)));
+        caps[a] = std::max(caps[a], VisibilityCap(p, kFloatSaturation));
         capped = true;
       }
   if (!capped) {  // one sharpness value: it needs theta everywhere

@@ -33,8 +33,8 @@ std::vector<size_t> ActiveLobes(const ShadowPlaneModel& model, const SgLighting&
 
 }  // namespace
 
-float VisibilityCap(const ProductLobe& product) {
-  return static_cast<float>(kSigmoidSaturation / VisibilitySteepness(product.lambda_prime));
+float VisibilityCap(const ProductLobe& product, double saturation) {
+  return static_cast<float>(saturation / VisibilitySteepness(product.lambda_prime));
 }
 
 std::vector<float> OccluderConeCosines(const std::vector<SphereTree>& trees, const std::vector<Eigen::Vector3d>& points) {

@@ -83,8 +83,10 @@ void PlaneAngles(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3
 std::vector<float> OccluderConeCosines(const std::vector<SphereTree>& trees, const std::vector<Eigen::Vector3d>& points);
 
 // The theta beyond which sigmoid(k(lambda') theta) is 1 (and its derivative 0)
-// to double precision: no occluder search needs to look further.
-float VisibilityCap(const ProductLobe& product);
+// to double precision: no occluder search needs to look further. A caller
+// whose shading is float may pass a lower saturation (z at which the sigmoid
+// is within an ulp of 1 in float).
+float VisibilityCap(const ProductLobe& product, double saturation = kSigmoidSaturation);
 
 // Which shading the model uses: the paper's (cosine as one SG, plain sigmoid
 // visibility, lobes below the plane dropped) or `sg`'s (exact cosine,
