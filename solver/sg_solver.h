@@ -78,11 +78,11 @@ struct SgSolverOptions {
   // Keep the smallest model within this much of the best held-out MSE (the
   // size path, the pool's leading sets, the choice among finished fits). A
   // tolerance t gives up at most 10 log10(1 + t) dB on the held-out pixels,
-  // but more on the image: the smaller model is the one refined further. At
-  // 0.02 (before), balanced, 10-20 seeds interleaved: 0.01 moved interior and
-  // sunrise seeds by -0.13..+0.37 dB, their medians by +0.09 and +0.08, and
-  // 0.005 by +0.03 and +0.06 more (no seed lower), for a few lobes more there
-  // and the same time; sunsky's sun and sky kept 2-3 lobes (README).
+  // but more on the image: the smaller model is the one refined further.
+  // 0.02 -> 0.005 (balanced, seeds 0-9 interleaved): every interior and
+  // sunrise seed up by 0.02-0.44 dB (medians +0.09 and +0.13), the interior's
+  // spread 0.40 -> 0.30, a few lobes more, the same time; sunsky's sun and
+  // sky kept 2-3 lobes. None (0) added 0.02 dB for twice the lobes (README).
   double size_tolerance = 0.005;
   int max_atoms = 160;             // active-set size cap of the dictionary fit
   double kkt_tolerance = 1e-4;     // stop the dictionary fit when no atom's gradient beats this (relative)
