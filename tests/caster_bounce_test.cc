@@ -229,6 +229,8 @@ TEST(CasterBounce, SolverKeepsTheBounceWhereTheImageHasIt) {
   EXPECT_FALSE(off["report"]["bounce"].get<bool>());
   EXPECT_TRUE(on["report"]["bounce"].get<bool>());
   EXPECT_GT(on["psnr"].get<double>(), off["psnr"].get<double>() + 1.0);
+  // The report states the rule the size was chosen by.
+  EXPECT_DOUBLE_EQ(on["report"]["size_tolerance"].get<double>(), SgSolverOptions{}.size_tolerance);
 
   // Where the image holds no bounce (direct light only), the held-out error
   // keeps the model without it.
