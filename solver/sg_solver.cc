@@ -901,6 +901,13 @@ bool BounceRaceDrops(size_t steps, size_t other_steps, double best, double other
   return paths_ended && best > kEndMargin * other_best;
 }
 
+std::vector<char> LaterRestartModels(const std::vector<char>& first_racing, const SgSolverOptions& o) {
+  if (!o.bounce_race_once) return std::vector<char>(first_racing.size(), 1);
+  std::vector<char> later = first_racing;
+  if (o.close_race_to_bounce && later.size() == 2 && later[0] && later[1]) later[0] = 0;
+  return later;
+}
+
 SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3f>& targets,
                    const SgSolverOptions& o, SgSolverSummary* summary, const ProgressFn& progress) {
   const auto start = Clock::now();
@@ -934,7 +941,7 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   // Every restart's fit pixels as prepared (dictionary dropped), for the pool.
   std::vector<FitData> sets(static_cast<size_t>(o.restarts));
   // A model that clearly lost the first restart's race (BounceRaceDrops) is
-  // not fitted again; where that race was close, every restart races.
+  // not fitted again (LaterRestartModels).
   std::vector<char> entered(nv, 1);
   std::vector<int> entries(nv, 0);
   AtomBounce atom_bounce;
@@ -1018,7 +1025,7 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   };
 
   Outcome first = run_restart(0, entered);
-  if (o.bounce_race_once) entered = first.racing;
+  entered = LaterRestartModels(first.racing, o);
   keep(std::move(first));
   // The later restarts depend on the first one only (the race it decided,
   // the atoms' bounce it computed; StartFit computes that only while it is

@@ -374,6 +374,26 @@ TEST(SgSolver, BounceRaceDropsOnlyAClearLoser) {
   EXPECT_FALSE(BounceRaceDrops(6, 9, 1.0, 1.09, /*paths_ended=*/true));
 }
 
+// The later restarts fit the first race's survivors; after a close race
+// (both survived) the model with the bounce alone, unless told otherwise.
+TEST(SgSolver, LaterRestartsFitTheFirstRacesSurvivors) {
+  using Models = std::vector<char>;
+  SgSolverOptions o = SgSolverOptions::Budget("balanced");
+  ASSERT_TRUE(o.bounce_race_once);
+  ASSERT_TRUE(o.close_race_to_bounce);
+  EXPECT_EQ(LaterRestartModels(Models{1, 0}, o), (Models{1, 0}));
+  EXPECT_EQ(LaterRestartModels(Models{0, 1}, o), (Models{0, 1}));
+  EXPECT_EQ(LaterRestartModels(Models{1, 1}, o), (Models{0, 1}));
+  EXPECT_EQ(LaterRestartModels(Models{1}, o), (Models{1}));  // no bounce in the model: one racer
+  o.close_race_to_bounce = false;
+  EXPECT_EQ(LaterRestartModels(Models{1, 1}, o), (Models{1, 1}));
+  EXPECT_EQ(LaterRestartModels(Models{1, 0}, o), (Models{1, 0}));
+  o.bounce_race_once = false;
+  o.close_race_to_bounce = true;
+  EXPECT_EQ(LaterRestartModels(Models{1, 0}, o), (Models{1, 1}));
+  EXPECT_EQ(LaterRestartModels(Models{1, 1}, o), (Models{1, 1}));
+}
+
 // The dictionary's theta stops where every atom but the flattest is fully
 // visible: those atoms shade as with the full search (to an ulp), the flattest
 // ones nearly so, and the values there are lower bounds of theta.
