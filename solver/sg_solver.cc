@@ -73,6 +73,8 @@ bool SgSolverOptions::IsValid(std::string* error) const {
   if (refine_iterations < 0) return fail("refine_iterations must be >= 0");
   if (restarts < 1) return fail("restarts must be >= 1");
   if (path_pairs_from < 0) return fail("path_pairs_from must be >= 0");
+  for (double f : pool_sharpness)
+    if (!(f > 0) || !std::isfinite(f)) return fail("pool_sharpness factors must be positive");
   if (!(bounce_form_tolerance >= 0 && bounce_form_tolerance < 1)) return fail("bounce_form_tolerance must be in [0, 1)");
   return true;
 }
@@ -363,13 +365,14 @@ double SquaredError(const Eigen::MatrixXd& gram, const Eigen::VectorXd& atb, dou
 LobeNormalEquations BuildLobeNormalEquations(const ShadowPlaneModel& model, const std::vector<double>& weight,
                                              const std::vector<Eigen::Vector3f>& targets,
                                              const std::vector<SgLobe>& lobes,
-                                             std::vector<OccluderCones::AngleHints>* hints = nullptr) {
+                                             std::vector<OccluderCones::AngleHints>* hints = nullptr,
+                                             const std::array<Eigen::MatrixXf, 3>* bounce_irradiance = nullptr) {
   const long np = static_cast<long>(model.points.size());
   std::vector<Eigen::Vector3d> axes;
   std::vector<double> sharpness;
   for (const SgLobe& l : lobes) axes.push_back(l.axis), sharpness.push_back(l.sharpness);
   // One batch of shading columns (as the dictionary's), not a render a lobe.
-  const LobeShadingColumns shading = LobeColumns(model, axes, sharpness, hints);
+  const LobeShadingColumns shading = LobeColumns(model, axes, sharpness, hints, bounce_irradiance);
   LobeNormalEquations eq;
   for (int c = 0; c < 3; ++c) {
     Eigen::VectorXd b(np);
@@ -421,25 +424,33 @@ std::vector<long> EliminationOrder(const LobeNormalEquations& eq) {
     }
     return e;
   };
-  // Each round drops the member whose removal raises the error least. One at
-  // zero amplitude in every channel raises it by nothing: it goes at once
-  // (first in input order), without the other members' solves.
+  // Each round drops the member whose removal raises the error least. Those
+  // at zero amplitude in every channel raise it by nothing, and the others'
+  // solution stays optimal without them: they all go at once (in input
+  // order), without the other members' solves. The candidates of a round are
+  // independent solves, shared by the threads (the pool's sharpness copies
+  // make a few hundred members).
   std::vector<long> set(n);
   std::iota(set.begin(), set.end(), 0);
   std::vector<long> dropped;
   while (!set.empty()) {
     std::vector<char> active;
     subset_error(set, &active);
-    long drop = std::find(active.begin(), active.end(), 0) - active.begin();
-    if (drop == static_cast<long>(set.size())) {
-      double least = std::numeric_limits<double>::infinity();
-      for (size_t t = 0; t < set.size(); ++t) {
-        std::vector<long> rest = set;
-        rest.erase(rest.begin() + static_cast<long>(t));
-        const double e = subset_error(rest, nullptr);
-        if (e < least) least = e, drop = static_cast<long>(t);
-      }
+    if (std::find(active.begin(), active.end(), 0) != active.end()) {
+      std::vector<long> kept;
+      for (size_t t = 0; t < set.size(); ++t) (active[t] ? kept : dropped).push_back(set[t]);
+      set = std::move(kept);
+      continue;
     }
+    const long m = static_cast<long>(set.size());
+    std::vector<double> error(static_cast<size_t>(m));
+#pragma omp parallel for schedule(dynamic, 1) if (m > 8 && !omp_in_parallel())
+    for (long t = 0; t < m; ++t) {
+      std::vector<long> rest = set;
+      rest.erase(rest.begin() + t);
+      error[static_cast<size_t>(t)] = subset_error(rest, nullptr);
+    }
+    const long drop = std::min_element(error.begin(), error.end()) - error.begin();
     dropped.push_back(set[drop]);
     set.erase(set.begin() + drop);
   }
@@ -732,10 +743,30 @@ FitResult FinishFit(FitRun&& run, double signal, const SgSolverOptions& o) {
   return r;
 }
 
-std::vector<SgLobe> PooledLobes(const std::vector<SgLighting>& fits) {
+// Every lobe of the fits, then each again at o.pool_sharpness's multiples
+// of its sharpness (within the refinement's bounds; a copy the bounds make
+// equal to its lobe is left out).
+std::vector<SgLobe> PooledLobes(const std::vector<SgLighting>& fits, const SgSolverOptions& o) {
   std::vector<SgLobe> lobes;
   for (const SgLighting& f : fits) lobes.insert(lobes.end(), f.lobes.begin(), f.lobes.end());
+  const RefineLmOptions bounds;
+  const size_t n = lobes.size();
+  for (double factor : o.pool_sharpness)
+    for (size_t i = 0; i < n; ++i) {
+      SgLobe copy = lobes[i];
+      copy.sharpness = std::clamp(copy.sharpness * factor, bounds.min_sharpness, bounds.max_sharpness);
+      if (copy.sharpness != lobes[i].sharpness) lobes.push_back(copy);
+    }
   return lobes;
+}
+
+// BounceIrradiance of the lobes (the model's bounce), or nothing without it.
+std::array<Eigen::MatrixXf, 3> LobesBounceIrradiance(const ShadowPlaneModel& model, const std::vector<SgLobe>& lobes) {
+  if (!model.bounce || lobes.empty()) return {};
+  std::vector<Eigen::Vector3d> axes;
+  std::vector<double> sharpness;
+  for (const SgLobe& l : lobes) axes.push_back(l.axis), sharpness.push_back(l.sharpness);
+  return BounceIrradiance(model, axes, sharpness);
 }
 
 // PoolLobes on the fit points' system of all the lobes (one system serves
@@ -744,7 +775,7 @@ std::vector<SgLobe> PooledLobes(const std::vector<SgLighting>& fits) {
 SgLighting PoolLobeSystem(LobeNormalEquations eq, std::vector<SgLobe> lobes, const Eigen::Vector3d& up,
                           const ShadowPlaneModel& hold_model, const std::vector<Eigen::Vector3f>& hold_targets,
                           const SgSolverOptions& o, std::vector<double>* heldout_path,
-                          double* fit_mse = nullptr) {
+                          double* fit_mse = nullptr, const std::array<Eigen::MatrixXf, 3>* bounce_irradiance = nullptr) {
   SHADOWSG_CHECK(hold_targets.size() == hold_model.points.size());
   SgLighting pooled;
   pooled.up = up;
@@ -758,6 +789,9 @@ SgLighting PoolLobeSystem(LobeNormalEquations eq, std::vector<SgLobe> lobes, con
   std::vector<SgLobe> ordered;
   for (long i : order) ordered.push_back(lobes[i]);
   lobes = std::move(ordered);
+  std::array<Eigen::MatrixXf, 3> irradiance;  // in the same order
+  if (bounce_irradiance && (*bounce_irradiance)[0].size())
+    for (int c = 0; c < 3; ++c) irradiance[c] = (*bounce_irradiance)[c](Eigen::all, order);
   const long n = static_cast<long>(lobes.size());
   // Amplitudes of the first k lobes, per channel.
   auto amplitudes = [&](long k) {
@@ -770,8 +804,9 @@ SgLighting PoolLobeSystem(LobeNormalEquations eq, std::vector<SgLobe> lobes, con
     // The held-out error of each leading set from the held-out pixels' own
     // system (the render is linear in the amplitudes): one batch of shading
     // columns instead of a render a set.
-    const LobeNormalEquations hold =
-        BuildLobeNormalEquations(hold_model, std::vector<double>(hold_model.points.size(), 1.0), hold_targets, lobes);
+    const LobeNormalEquations hold = BuildLobeNormalEquations(
+        hold_model, std::vector<double>(hold_model.points.size(), 1.0), hold_targets, lobes, nullptr,
+        hold_model.bounce && irradiance[0].size() ? &irradiance : nullptr);
     const double count = 3.0 * std::max<size_t>(1, hold_targets.size());
     double signal = 0;
     for (int c = 0; c < 3; ++c) signal += hold.btb[c] / count;
@@ -812,16 +847,22 @@ FitResult PoolFits(const std::vector<FitData>& sets, bool bounce, const std::vec
                    const SgSolverOptions& o) {
   std::vector<SgLighting> lightings;
   for (const FitResult& f : fits) lightings.push_back(f.lighting);
-  const std::vector<SgLobe> lobes = PooledLobes(lightings);
+  const std::vector<SgLobe> lobes = PooledLobes(lightings, o);
+  // The casters' irradiance does not depend on the points: once for every set.
+  const std::array<Eigen::MatrixXf, 3> irradiance = bounce ? LobesBounceIrradiance(sets[0].model, lobes)
+                                                           : std::array<Eigen::MatrixXf, 3>{};
   LobeNormalEquations eq;
-  for (const FitData& d : sets) eq.Add(BuildLobeNormalEquations(bounce ? d.model : d.direct, d.weight, d.targets, lobes));
+  for (const FitData& d : sets)
+    eq.Add(BuildLobeNormalEquations(bounce ? d.model : d.direct, d.weight, d.targets, lobes, nullptr,
+                                    bounce ? &irradiance : nullptr));
   FitResult r;
   r.sum = fits[0].sum;
   r.sum.theta_seconds = r.sum.select_seconds = r.sum.refine_seconds = 0;  // the restarts' own are counted
   r.sum.scan_moves = 0;
   r.sum.refine_iterations = 0;
   r.lighting =
-      PoolLobeSystem(eq, lobes, lightings[0].up, hold_model, hold_targets, o, &r.sum.heldout_mse, &r.sum.fit_mse_selected);
+      PoolLobeSystem(eq, lobes, lightings[0].up, hold_model, hold_targets, o, &r.sum.heldout_mse, &r.sum.fit_mse_selected,
+                     bounce ? &irradiance : nullptr);
   r.sum.fit_mse_refined = r.sum.fit_mse_selected;
   r.sum.lobes_kept = static_cast<int>(r.lighting.lobes.size());
   r.heldout_mse = r.lighting.lobes.empty() ? std::numeric_limits<double>::infinity()
@@ -873,7 +914,7 @@ SgLighting PoolLobes(const ShadowPlaneModel& model, const std::vector<double>& w
                      const ShadowPlaneModel& hold_model, const std::vector<Eigen::Vector3f>& hold_targets,
                      const SgSolverOptions& o, std::vector<double>* heldout_path) {
   SHADOWSG_CHECK(weight.size() == model.points.size() && targets.size() == model.points.size());
-  const std::vector<SgLobe> lobes = PooledLobes(fits);
+  const std::vector<SgLobe> lobes = PooledLobes(fits, o);
   const LobeNormalEquations eq =
       lobes.empty() ? LobeNormalEquations{} : BuildLobeNormalEquations(model, weight, targets, lobes);
   return PoolLobeSystem(eq, lobes, fits.empty() ? Eigen::Vector3d::UnitZ() : fits[0].up, hold_model, hold_targets, o,
@@ -1056,15 +1097,31 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   for (int r = side_by_side + 1; r < o.restarts; ++r) outcomes[r - 1] = run_restart(r, entered);
   for (Outcome& out : outcomes) keep(std::move(out));
   // Each model's restarts pooled: one more finished fit, judged with them.
+  // A model's one fit pooled with its sharpness copies (pool_sharpness)
+  // takes its place where its held-out error is lower: no judging set is
+  // built for it (0.2 s on pub_torus_sunrise, fast).
   std::vector<char> pooled(nv, 0);
   if (o.pool_restarts)
     for (size_t v = 0; v < nv; ++v) {
-      if (fits[v].size() < 2) continue;
-      Report(progress, 0.99, "pooling the restarts");
+      const bool one = fits[v].size() == 1;
+      if (fits[v].empty() || (one && (o.pool_sharpness.empty() || o.lobes > 0))) continue;
+      Report(progress, 0.99, one ? "pooling the fit's lobes" : "pooling the restarts");
       const auto t0 = Clock::now();
-      fits[v].push_back(PoolFits(sets, has_bounce(v), fits[v], hold_for(v), hold_targets, o));
-      fits[v].back().sum.select_seconds = Since(t0);
-      pooled[v] = 1;
+      FitResult pool = PoolFits(sets, has_bounce(v), fits[v], hold_for(v), hold_targets, o);
+      pool.sum.select_seconds = Since(t0);
+      if (!one) {
+        fits[v].push_back(std::move(pool));
+        pooled[v] = 1;
+      } else if (pool.heldout_mse < fits[v][0].heldout_mse) {
+        // The fit's report stays (its size path, times), with the pool's result.
+        SgSolverSummary sum = fits[v][0].sum;
+        sum.select_seconds += pool.sum.select_seconds;
+        sum.fit_mse_refined = pool.sum.fit_mse_selected;
+        sum.lobes_kept = pool.sum.lobes_kept;
+        pool.sum = sum;
+        fits[v][0] = std::move(pool);
+        pooled[v] = 1;
+      }
     }
   // The finished fits are judged on the held-out set or, where there is a
   // choice, on a larger one: the held-out pixels and more that no restart

@@ -219,10 +219,14 @@ Eigen::MatrixXf BounceLobeShading(const ShadowPlaneModel& model, const std::arra
 
 LobeShadingColumns LobeColumns(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3d>& axes,
                                const std::vector<double>& sharpness,
-                               std::vector<OccluderCones::AngleHints>* lobe_hints) {
+                               std::vector<OccluderCones::AngleHints>* lobe_hints,
+                               const std::array<Eigen::MatrixXf, 3>* bounce_irradiance) {
   LobeShadingColumns s;
   s.direct = DirectLobeShading(model, axes, sharpness, lobe_hints);
-  if (model.bounce) s.bounce = BounceLobeShadingRgb(model, BounceIrradiance(model, axes, sharpness));
+  if (model.bounce) {
+    SHADOWSG_CHECK(!bounce_irradiance || (*bounce_irradiance)[0].cols() == static_cast<long>(axes.size()));
+    s.bounce = BounceLobeShadingRgb(model, bounce_irradiance ? *bounce_irradiance : BounceIrradiance(model, axes, sharpness));
+  }
   return s;
 }
 

@@ -142,9 +142,12 @@ struct LobeShadingColumns {
   std::array<Eigen::MatrixXf, 3> bounce;  // per channel; empty without the bounce
   Eigen::MatrixXd Weighted(const ShadowPlaneModel& model, const std::vector<double>& weight, int c) const;
 };
+// bounce_irradiance (optional): BounceIrradiance of these lobes, which does
+// not depend on the model's points (callers with several point sets share it).
 LobeShadingColumns LobeColumns(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3d>& axes,
                                const std::vector<double>& sharpness,
-                               std::vector<OccluderCones::AngleHints>* lobe_hints = nullptr);
+                               std::vector<OccluderCones::AngleHints>* lobe_hints = nullptr,
+                               const std::array<Eigen::MatrixXf, 3>* bounce_irradiance = nullptr);
 
 // Closed-form radiance of every point (direct light, plus the casters'
 // bounce when the model has it; bounce_share, when given, receives that

@@ -275,6 +275,7 @@ TEST(SgSolver, PoolJoinsPartialFitsAndKeepsEachLightOnce) {
   const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, truth);
   const std::vector<double> weight(model.points.size(), 1.0);
   SgSolverOptions o = SgSolverOptions::Budget("balanced");
+  o.pool_sharpness = {};  // the fits' own lobes (PoolBlendsSharpnessCopies: with copies)
   SgLighting sun = truth, rest = truth;
   sun.lobes = {truth.lobes[0]};
   rest.lobes = {truth.lobes[1], truth.lobes[2]};
@@ -303,6 +304,80 @@ TEST(SgSolver, PoolJoinsPartialFitsAndKeepsEachLightOnce) {
   EXPECT_LE(PoolLobes(model, weight, targets, {sun, rest}, model, targets, o).lobes.size(), 2u);
   o.lobes = 0;
   EXPECT_TRUE(PoolLobes(model, weight, targets, {}, model, targets, o).lobes.empty());
+}
+
+// A fit whose lobe has the right axis but not the right sharpness: the pool
+// offers it at other sharpness values too, and NNLS takes the one that fits.
+TEST(SgSolver, PoolBlendsSharpnessCopies) {
+  const ShadowPlaneModel model = SgTestModel(48);
+  SgLighting truth;
+  truth.lobes.push_back({Eigen::Vector3d(0.4, 0.3, 0.87).normalized(), 10.0, Eigen::Vector3d(30, 28, 25)});
+  const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, truth);
+  const std::vector<double> weight(model.points.size(), 1.0);
+  SgLighting fit = truth;
+  fit.lobes[0].sharpness = 40;
+  SgSolverOptions o = SgSolverOptions::Budget("balanced");
+  o.pool_sharpness = {};
+  const SgLighting own = PoolLobes(model, weight, targets, {fit}, model, targets, o);
+  ASSERT_EQ(own.lobes.size(), 1u);
+  EXPECT_EQ(own.lobes[0].sharpness, 40);
+  const double own_psnr = Psnr(RenderShadowPlane(model, own), targets);
+  EXPECT_LT(own_psnr, 50.0);
+
+  o.pool_sharpness = {0.25, 0.5, 2};
+  std::vector<double> path;
+  const SgLighting blended = PoolLobes(model, weight, targets, {fit}, model, targets, o, &path);
+  EXPECT_EQ(path.size(), 4u);  // the lobe and its three copies
+  ASSERT_EQ(blended.lobes.size(), 1u);
+  EXPECT_EQ(blended.lobes[0].sharpness, 10);
+  EXPECT_GT(Psnr(RenderShadowPlane(model, blended), targets), 80.0);
+
+  // Copies stay within the refinement's bounds, and one the bounds make equal
+  // to its lobe is left out.
+  fit.lobes[0].sharpness = 4000;
+  PoolLobes(model, weight, targets, {fit}, model, targets, o, &path);
+  EXPECT_EQ(path.size(), 4u);
+  fit.lobes[0].sharpness = 5000;
+  PoolLobes(model, weight, targets, {fit}, model, targets, o, &path);
+  EXPECT_EQ(path.size(), 3u);
+  o.pool_sharpness = {0};
+  std::string error;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("pool_sharpness"), std::string::npos);
+}
+
+// One fit (one restart, one model): its pool with the sharpness copies takes
+// its place only where the held-out error falls; otherwise the fit is kept as
+// it was.
+TEST(SgSolver, OneFitIsReplacedByItsPoolOnlyWhereTheHeldOutErrorFalls) {
+  const ShadowPlaneModel model = SgTestModel(64);
+  const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, Cases()[1].truth);
+  int replaced = 0;
+  for (uint64_t seed : {1, 2, 3}) {
+    SgSolverOptions o = SgSolverOptions::Budget("fast");
+    ASSERT_EQ(o.restarts, 1);
+    o.fit_pixels = 600;
+    o.holdout_pixels = 200;
+    o.seed = seed;
+    o.pool_sharpness = {};
+    SgSolverSummary plain_sum, pooled_sum;
+    const SgLighting plain = SolveSg(model, targets, o, &plain_sum);
+    EXPECT_FALSE(plain_sum.pooled);
+    o.pool_sharpness = {0.25, 0.5, 2};
+    const SgLighting pooled = SolveSg(model, targets, o, &pooled_sum);
+    ASSERT_EQ(pooled_sum.restart_heldout_mse.size(), 1u);
+    EXPECT_EQ(pooled_sum.heldout_mse, plain_sum.heldout_mse);  // the same size path
+    EXPECT_EQ(static_cast<int>(pooled.lobes.size()), pooled_sum.lobes_kept);
+    if (pooled_sum.pooled) {
+      ++replaced;
+      EXPECT_LT(pooled_sum.restart_heldout_mse[0], plain_sum.restart_heldout_mse[0]);
+    } else {
+      EXPECT_EQ(pooled_sum.restart_heldout_mse[0], plain_sum.restart_heldout_mse[0]);
+      ASSERT_EQ(pooled.lobes.size(), plain.lobes.size());
+      for (size_t i = 0; i < plain.lobes.size(); ++i) EXPECT_EQ(pooled.lobes[i].axis, plain.lobes[i].axis);
+    }
+  }
+  RecordProperty("replaced", replaced);
 }
 
 // The size path takes lobes in the reverse order of backward elimination: a
