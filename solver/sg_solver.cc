@@ -915,10 +915,12 @@ SgLighting PoolLobes(const ShadowPlaneModel& model, const std::vector<double>& w
                      const SgSolverOptions& o, std::vector<double>* heldout_path) {
   SHADOWSG_CHECK(weight.size() == model.points.size() && targets.size() == model.points.size());
   const std::vector<SgLobe> lobes = PooledLobes(fits, o);
+  const std::array<Eigen::MatrixXf, 3> irradiance = LobesBounceIrradiance(model, lobes);
+  const std::array<Eigen::MatrixXf, 3>* shared = irradiance[0].size() ? &irradiance : nullptr;
   const LobeNormalEquations eq =
-      lobes.empty() ? LobeNormalEquations{} : BuildLobeNormalEquations(model, weight, targets, lobes);
+      lobes.empty() ? LobeNormalEquations{} : BuildLobeNormalEquations(model, weight, targets, lobes, nullptr, shared);
   return PoolLobeSystem(eq, lobes, fits.empty() ? Eigen::Vector3d::UnitZ() : fits[0].up, hold_model, hold_targets, o,
-                        heldout_path);
+                        heldout_path, nullptr, shared);
 }
 
 bool BounceRaceDrops(size_t steps, size_t other_steps, double best, double other_best, bool paths_ended) {

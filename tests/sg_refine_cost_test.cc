@@ -5,33 +5,17 @@
 
 #include <gtest/gtest.h>
 
-#include <memory>
-
-#include "solver/caster_bounce.h"
-#include "solver/primitives.h"
-#include "solver/ray_caster.h"
 #include "sg_test_scene.h"
 
 namespace shadowsg {
 namespace {
 
-// The test caster's sphere tree for the direct light, and a white sphere
-// mesh of about its size for the bounce (the Jacobian check needs no
-// agreement between the two).
+// The test caster's sphere tree for the direct light and, with the bounce,
+// testing::AddTestCasterBounce's sphere mesh.
 ShadowPlaneModel ModelWithBounce(bool bounce) {
   ShadowPlaneModel model = testing::TestPlaneModel(20, CosineModel::kExact);
   model.normal = Eigen::Vector3d::UnitZ();
-  if (!bounce) return model;
-  TriangleMesh ball = MakeIcosphere(0.3, 3);
-  for (Eigen::Vector3d& v : ball.vertices) v += Eigen::Vector3d(0, 0, 0.301);
-  RayCaster casters;
-  casters.AddMesh(ball);
-  casters.Commit();
-  CasterBounceOptions o;
-  o.patches = 64;
-  model.bounce = std::make_shared<const CasterBounce>(std::vector<TriangleMesh>{ball},
-                                                      std::vector<Eigen::Vector3d>{Eigen::Vector3d::Constant(0.9)},
-                                                      casters, Eigen::Vector3d::Zero(), model.normal, o);
+  if (bounce) testing::AddTestCasterBounce(&model);
   return model;
 }
 

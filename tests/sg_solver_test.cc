@@ -346,6 +346,32 @@ TEST(SgSolver, PoolBlendsSharpnessCopies) {
   EXPECT_NE(error.find("pool_sharpness"), std::string::npos);
 }
 
+// With the casters' bounce: the pool's systems share one bounce irradiance
+// of its lobes, which must follow the lobes into elimination order (a lobe
+// the light lacks goes last, so that order is not the input's).
+TEST(SgSolver, PoolWithTheBounceKeepsEachLobesOwnBounce) {
+  ShadowPlaneModel model = SgTestModel(32);
+  model.normal = Eigen::Vector3d::UnitZ();
+  testing::AddTestCasterBounce(&model);
+  const SgLighting truth = Cases()[1].truth;
+  const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, truth);
+  const std::vector<double> weight(model.points.size(), 1.0);
+  SgLighting fit;
+  fit.lobes.push_back({Eigen::Vector3d(0, -0.9, 0.44).normalized(), 5.0, Eigen::Vector3d(1, 1, 1)});
+  for (SgLobe l : truth.lobes) fit.lobes.push_back({l.axis, l.sharpness, 2 * l.amplitude});
+  SgSolverOptions o = SgSolverOptions::Budget("balanced");
+  o.pool_sharpness = {};
+  std::vector<double> path;
+  const SgLighting pooled = PoolLobes(model, weight, targets, {fit}, model, targets, o, &path);
+  ASSERT_EQ(path.size(), 4u);
+  double signal = 0;
+  for (const Eigen::Vector3f& t : targets) signal += t.cast<double>().squaredNorm() / 3;
+  signal /= static_cast<double>(targets.size());
+  EXPECT_LT(path[2], 1e-8 * signal);  // the three true lobes, each with its own bounce
+  EXPECT_EQ(pooled.lobes.size(), 3u);
+  EXPECT_GT(Psnr(RenderShadowPlane(model, pooled), targets), 70.0);
+}
+
 // One fit (one restart, one model): its pool with the sharpness copies takes
 // its place only where the held-out error falls; otherwise the fit is kept as
 // it was.

@@ -3,7 +3,11 @@
 #pragma once
 
 #include <cmath>
+#include <memory>
 
+#include "solver/caster_bounce.h"
+#include "solver/primitives.h"
+#include "solver/ray_caster.h"
 #include "solver/shadow_plane.h"
 
 namespace shadowsg::testing {
@@ -31,6 +35,21 @@ inline ShadowPlaneModel TestPlaneModel(int grid, CosineModel cosine) {
       m.albedo.emplace_back(0.8f, 0.7f, 0.6f);
     }
   return m;
+}
+
+// The casters' bounce for the test plane: a white sphere mesh of about the
+// caster's size (the direct light's sphere tree and it need not agree).
+inline void AddTestCasterBounce(ShadowPlaneModel* model) {
+  TriangleMesh ball = MakeIcosphere(0.3, 3);
+  for (Eigen::Vector3d& v : ball.vertices) v += Eigen::Vector3d(0, 0, 0.301);
+  RayCaster casters;
+  casters.AddMesh(ball);
+  casters.Commit();
+  CasterBounceOptions o;
+  o.patches = 64;
+  model->bounce = std::make_shared<const CasterBounce>(std::vector<TriangleMesh>{ball},
+                                                       std::vector<Eigen::Vector3d>{Eigen::Vector3d::Constant(0.9)},
+                                                       casters, Eigen::Vector3d::Zero(), model->normal, o);
 }
 
 }  // namespace shadowsg::testing
