@@ -362,6 +362,11 @@ double SquaredError(const Eigen::MatrixXd& gram, const Eigen::VectorXd& atb, dou
   return btb - 2 * x.dot(atb) + x.dot(gram * x);
 }
 
+// The lobes' axes and sharpness values, as the shading batches take them.
+void SplitLobes(const std::vector<SgLobe>& lobes, std::vector<Eigen::Vector3d>* axes, std::vector<double>* sharpness) {
+  for (const SgLobe& l : lobes) axes->push_back(l.axis), sharpness->push_back(l.sharpness);
+}
+
 LobeNormalEquations BuildLobeNormalEquations(const ShadowPlaneModel& model, const std::vector<double>& weight,
                                              const std::vector<Eigen::Vector3f>& targets,
                                              const std::vector<SgLobe>& lobes,
@@ -370,7 +375,7 @@ LobeNormalEquations BuildLobeNormalEquations(const ShadowPlaneModel& model, cons
   const long np = static_cast<long>(model.points.size());
   std::vector<Eigen::Vector3d> axes;
   std::vector<double> sharpness;
-  for (const SgLobe& l : lobes) axes.push_back(l.axis), sharpness.push_back(l.sharpness);
+  SplitLobes(lobes, &axes, &sharpness);
   // One batch of shading columns (as the dictionary's), not a render a lobe.
   const LobeShadingColumns shading = LobeColumns(model, axes, sharpness, hints, bounce_irradiance);
   LobeNormalEquations eq;
@@ -765,7 +770,7 @@ std::array<Eigen::MatrixXf, 3> LobesBounceIrradiance(const ShadowPlaneModel& mod
   if (!model.bounce || lobes.empty()) return {};
   std::vector<Eigen::Vector3d> axes;
   std::vector<double> sharpness;
-  for (const SgLobe& l : lobes) axes.push_back(l.axis), sharpness.push_back(l.sharpness);
+  SplitLobes(lobes, &axes, &sharpness);
   return BounceIrradiance(model, axes, sharpness);
 }
 
