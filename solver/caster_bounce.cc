@@ -243,7 +243,7 @@ std::array<Eigen::MatrixXf, 3> CasterBounce::Irradiance(const std::vector<Eigen:
   // v = (share of the widened lobe the casters leave open, among the
   // directions above the plane) x (share of the true lobe above the plane):
   // widening a low sun would otherwise push half of it below the horizon.
-  const Eigen::MatrixXf num = visible_cos_ * weight, den = upper_cos_ * weight;
+  const Eigen::MatrixXf num = RowParallelProduct(visible_cos_, weight), den = RowParallelProduct(upper_cos_, weight);
   std::vector<double> upper(nl);
 #pragma omp parallel for schedule(static) if (nl > 16)
   for (long i = 0; i < nl; ++i) upper[i] = UpperShare(sharpness[i], axes[i].normalized().dot(normal_));

@@ -50,6 +50,7 @@
 
 #include "solver/mesh.h"
 #include "solver/ray_caster.h"
+#include "solver/row_parallel_product.h"
 #include "solver/sg.h"
 
 namespace shadowsg {
@@ -77,7 +78,7 @@ struct FactoredFormFactors {
   // points. Sums of reduced columns expand to the sum of their products: a
   // caller that needs only a weighted sum of many lobes' bounce expands that.
   Eigen::MatrixXf Reduce(const Eigen::MatrixXf& x) const { return basis.size() ? Eigen::MatrixXf(basis * x) : x; }
-  Eigen::MatrixXf Expand(const Eigen::MatrixXf& y) const { return left * y; }
+  Eigen::MatrixXf Expand(const Eigen::MatrixXf& y) const { return RowParallelProduct(left, y); }
 };
 FactoredFormFactors FactorFormFactors(Eigen::MatrixXf k, double tolerance);
 

@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "calib/error.h"
+#include "solver/row_parallel_product.h"
 #include "solver/sg_shading.h"
 
 namespace shadowsg {
@@ -101,8 +102,11 @@ void RefineCost::Update(const std::vector<Eigen::Vector3d>& axes, const std::vec
       LobeCache& c = cache_[stale[s]];
       c.theta = theta.col(s);
       c.witness.resize(np);
-      for (long k = 0; k < np; ++k) c.witness[k] = witness[k * ns + s];
     }
+    // Points x lobes to per lobe, a block of points per thread.
+#pragma omp parallel for schedule(static) if (np * ns > 16384)
+    for (long k = 0; k < np; ++k)
+      for (long s = 0; s < ns; ++s) cache_[stale[s]].witness[k] = witness[k * ns + s];
   }
   if (model_.bounce) UpdateBounce(axes, lambda, derivatives, need_dbounce);
 }
@@ -197,7 +201,7 @@ bool RefineCost::CostExceeds(const std::vector<SgLobe>& lobes, double limit) con
       Eigen::MatrixXf y = Eigen::MatrixXf::Zero(model_.bounce_form.rank(), 3);
       for (int j = 0; j < lobes_; ++j)
         for (int c = 0; c < 3; ++c) y.col(c) += static_cast<float>(lobes[j].amplitude[c]) * cache_[j].reduced[c];
-      bounce = model_.bounce_form.left.topRows(stop) * y;
+      bounce = RowParallelProduct(model_.bounce_form.left.topRows(stop), y);
     } else {
       bounce = Eigen::MatrixXf::Zero(stop, 3);
       for (int j = 0; j < lobes_; ++j)

@@ -883,13 +883,13 @@ Eigen::MatrixXf DictionaryAngles(const ShadowPlaneModel& fit, const std::vector<
   Eigen::MatrixXf theta;
   const double flattest = *std::min_element(sharpness.begin(), sharpness.end());
   std::vector<float> caps(axes.size(), 0.0f);
-  bool capped = false;
-  for (size_t a = 0; a < axes.size(); ++a)
+  const bool capped = std::any_of(sharpness.begin(), sharpness.end(), [&](double l) { return l > flattest; });
+#pragma omp parallel for schedule(static)
+  for (long a = 0; a < static_cast<long>(axes.size()); ++a)
     for (double l : sharpness)
       if (l > flattest) {
         const ProductLobe p = EvalProductLobe(axes[a], l, fit.normal, fit.cosine, /*derivatives=*/false);
         caps[a] = std::max(caps[a], VisibilityCap(p, kFloatSaturation));
-        capped = true;
       }
   if (!capped) {  // one sharpness value: it needs theta everywhere
     fit.cones.Angles(axes, &theta, nullptr);

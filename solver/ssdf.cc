@@ -913,12 +913,17 @@ OccluderCones::AngleHints JoinHints(const std::vector<OccluderCones::AngleHints*
   joined.axes.assign(na, Eigen::Vector3d::UnitZ());  // no floor to lower for a fresh column: any axis
   joined.leaf.assign(points * na, OccluderCones::kNoLeaf);
   joined.floor.assign(points * na, -kInfF);
+  std::vector<char> has(na, 0);
   for (size_t a = 0; a < na; ++a) {
     const OccluderCones::AngleHints* h = one_axis[a];
-    if (!h || h->axes.size() != 1 || h->leaf.size() != points || h->floor.size() != points) continue;
-    joined.axes[a] = h->axes[0];
-    for (size_t p = 0; p < points; ++p) joined.leaf[p * na + a] = h->leaf[p], joined.floor[p * na + a] = h->floor[p];
+    has[a] = h && h->axes.size() == 1 && h->leaf.size() == points && h->floor.size() == points;
+    if (has[a]) joined.axes[a] = h->axes[0];
   }
+  // Points x axes, copied a block of points per thread (a transpose).
+#pragma omp parallel for schedule(static) if (points * na > 16384)
+  for (long p = 0; p < static_cast<long>(points); ++p)
+    for (size_t a = 0; a < na; ++a)
+      if (has[a]) joined.leaf[p * na + a] = one_axis[a]->leaf[p], joined.floor[p * na + a] = one_axis[a]->floor[p];
   return joined;
 }
 
@@ -934,8 +939,12 @@ void SplitHints(const OccluderCones::AngleHints& joined, const std::vector<Occlu
     h.axes = {joined.axes[a]};
     h.leaf.resize(points);
     h.floor.resize(points);
-    for (size_t p = 0; p < points; ++p) h.leaf[p] = joined.leaf[p * na + a], h.floor[p] = joined.floor[p * na + a];
   }
+  if (!learnt) return;
+#pragma omp parallel for schedule(static) if (points * na > 16384)
+  for (long p = 0; p < static_cast<long>(points); ++p)
+    for (size_t a = 0; a < na; ++a)
+      one_axis[a]->leaf[p] = joined.leaf[p * na + a], one_axis[a]->floor[p] = joined.floor[p * na + a];
 }
 
 }  // namespace shadowsg

@@ -282,6 +282,34 @@ TEST(Ssdf, PerAxisHintsJoinAndSplit) {
   EXPECT_TRUE(kept[0].axes.empty() && kept[1].leaf.empty());
 }
 
+TEST(Ssdf, JoinedHintsArePointMajorAndSplitBackUnchanged) {
+  // Enough points x axes for the copies to run on the threads.
+  const size_t points = 9000;
+  std::vector<OccluderCones::AngleHints> one(3);
+  for (size_t a = 0; a < one.size(); ++a) {
+    if (a == 1) continue;  // a lobe without hints joins as a fresh column
+    one[a].axes = {Eigen::Vector3d(0.1 * a, 0.2, 1).normalized()};
+    for (size_t p = 0; p < points; ++p) {
+      one[a].leaf.push_back(static_cast<uint32_t>(7 * p + a));
+      one[a].floor.push_back(0.001f * static_cast<float>(p) - static_cast<float>(a));
+    }
+  }
+  std::vector<OccluderCones::AngleHints*> ptrs = {&one[0], &one[1], &one[2]};
+  const OccluderCones::AngleHints joined = JoinHints(ptrs, points);
+  ASSERT_EQ(joined.leaf.size(), points * 3);
+  for (size_t p = 0; p < points; ++p) {
+    EXPECT_EQ(joined.leaf[p * 3 + 0], one[0].leaf[p]);
+    EXPECT_EQ(joined.leaf[p * 3 + 1], OccluderCones::kNoLeaf);
+    EXPECT_EQ(joined.floor[p * 3 + 2], one[2].floor[p]);
+  }
+  const std::vector<OccluderCones::AngleHints> before = one;
+  SplitHints(joined, ptrs);
+  EXPECT_EQ(one[0].leaf, before[0].leaf);
+  EXPECT_EQ(one[2].floor, before[2].floor);
+  ASSERT_EQ(one[1].leaf.size(), points);  // the fresh column comes back as one
+  EXPECT_EQ(one[1].leaf[points - 1], OccluderCones::kNoLeaf);
+}
+
 TEST(Ssdf, BatchPrecisionNearTouchingSphere) {
   // A sphere resting on the plane: points close to the contact point are where
   // asin(r/d) is ill-conditioned; the float path must keep ~1e-5 there too.
