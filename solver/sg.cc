@@ -6,6 +6,10 @@
 
 namespace shadowsg {
 
+void SplitLobes(const std::vector<SgLobe>& lobes, std::vector<Eigen::Vector3d>* axes, std::vector<double>* sharpness) {
+  for (const SgLobe& l : lobes) axes->push_back(l.axis), sharpness->push_back(l.sharpness);
+}
+
 Eigen::Vector3d EvalSg(const SgLobe& lobe, const Eigen::Vector3d& dir) {
   return lobe.amplitude * std::exp(lobe.sharpness * (dir.dot(lobe.axis) - 1.0));
 }

@@ -21,6 +21,10 @@ struct SgLighting {
   std::vector<SgLobe> lobes;
 };
 
+// The lobes' axes and sharpness values appended to *axes and *sharpness, as
+// the batched shading functions take them.
+void SplitLobes(const std::vector<SgLobe>& lobes, std::vector<Eigen::Vector3d>* axes, std::vector<double>* sharpness);
+
 Eigen::Vector3d EvalSg(const SgLobe& lobe, const Eigen::Vector3d& dir);
 Eigen::Vector3d EvalSg(const SgLighting& lighting, const Eigen::Vector3d& dir);
 // Full-sphere integral of a lobe: 2 pi a (1 - exp(-2 lambda)) / lambda.

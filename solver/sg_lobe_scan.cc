@@ -77,7 +77,7 @@ LobeScanResult ScanBrightestSharpLobe(const ShadowPlaneModel& model, const std::
   auto shading = [&](const std::vector<SgLobe>& lobes) {
     std::vector<Eigen::Vector3d> axes;
     std::vector<double> sharpness;
-    for (const SgLobe& l : lobes) axes.push_back(l.axis), sharpness.push_back(l.sharpness);
+    SplitLobes(lobes, &axes, &sharpness);
     return LobeColumns(model, axes, sharpness);
   };
   const LobeShadingColumns ao = shading(others), ac = shading(candidates);

@@ -362,11 +362,6 @@ double SquaredError(const Eigen::MatrixXd& gram, const Eigen::VectorXd& atb, dou
   return btb - 2 * x.dot(atb) + x.dot(gram * x);
 }
 
-// The lobes' axes and sharpness values, as the shading batches take them.
-void SplitLobes(const std::vector<SgLobe>& lobes, std::vector<Eigen::Vector3d>* axes, std::vector<double>* sharpness) {
-  for (const SgLobe& l : lobes) axes->push_back(l.axis), sharpness->push_back(l.sharpness);
-}
-
 LobeNormalEquations BuildLobeNormalEquations(const ShadowPlaneModel& model, const std::vector<double>& weight,
                                              const std::vector<Eigen::Vector3f>& targets,
                                              const std::vector<SgLobe>& lobes,

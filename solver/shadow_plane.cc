@@ -272,7 +272,7 @@ std::vector<Eigen::Vector3f> RenderBounce(const ShadowPlaneModel& model, const S
   if (!model.bounce || lighting.lobes.empty()) return out;
   std::vector<Eigen::Vector3d> axes;
   std::vector<double> sharpness;
-  for (const SgLobe& l : lighting.lobes) axes.push_back(l.axis), sharpness.push_back(l.sharpness);
+  SplitLobes(lighting.lobes, &axes, &sharpness);
   const std::array<Eigen::MatrixXf, 3> e = BounceIrradiance(model, axes, sharpness);
   Eigen::MatrixXf radiance(e[0].rows(), 3);  // what each patch sends, per channel
   for (int c = 0; c < 3; ++c) {
