@@ -146,6 +146,13 @@ struct SgSolverOptions {
   // restart's held-out errors instead chose the direct model on two of the
   // four seeds (one -0.33 dB).
   bool close_race_to_bounce = true;
+  // Where a restart's direct-only model beat the model with the bounce (or
+  // alone finished), its lobes are refined once more with the bounce
+  // (refine_iterations) and enter as that restart's bounce fit when their
+  // held-out error is lower than both: the bounce model's own size path
+  // sometimes ends far from where the direct one shows the lights are. The
+  // later restarts carry only where the first restart's carried fit entered.
+  bool carry_direct_into_bounce = true;
   uint64_t seed = 0;
 
   // Presets of `--budget`: fast, balanced (default), best.
@@ -169,8 +176,10 @@ struct SgSolverSummary {
   bool pooled = false;                      // the kept fit is a pool (of the restarts, or of one fit's lobes)
   bool bounce = false;                      // the chosen model has the casters' bounce
   std::vector<double> bounce_heldout_mse;   // choose_bounce: best held-out MSE without, then with, the bounce (a model that
-                                            // dropped out of the race: the best of its size path)
+                                            // dropped out of the race: the best of its size path, or of a fit
+                                            // carried into it)
   std::vector<int> bounce_race_entries;     // choose_bounce: restarts each model was fitted in (bounce_race_once)
+  int bounce_carried = 0;                   // restarts whose bounce fit is their direct fit carried into it
   // Each part's time summed over the fits (later restarts run side by side,
   // so the parts may add up to more than `seconds`, the solve's wall time).
   double theta_seconds = 0, select_seconds = 0, refine_seconds = 0, seconds = 0;
@@ -220,6 +229,15 @@ SgLighting PoolLobes(const ShadowPlaneModel& model, const std::vector<double>& w
                      const std::vector<Eigen::Vector3f>& targets, const std::vector<SgLighting>& fits,
                      const ShadowPlaneModel& hold_model, const std::vector<Eigen::Vector3f>& hold_targets,
                      const SgSolverOptions& options, std::vector<double>* heldout_path = nullptr);
+
+// A direct-only fit carried into the model with the casters' bounce
+// (`model`, which must have it): every amplitude re-solved by NNLS per
+// channel (the bounce adds light), then options.refine_iterations of LM over
+// the model's points. The solver tries it where a restart's direct model
+// beat the bounce model's own size path (carry_direct_into_bounce).
+SgLighting CarryIntoBounce(const ShadowPlaneModel& model, const std::vector<double>& weight,
+                           const std::vector<Eigen::Vector3f>& targets, SgLighting direct,
+                           const SgSolverOptions& options);
 
 // theta of the dictionary's axes at a fit set's points (prepared cones), for
 // its atoms of the given sharpness values: points x axes. Every atom but the

@@ -114,6 +114,7 @@ LightingEstimate SolveWithSg(Scene& scene, const fs::path& scene_dir, const Plan
                    {"bounce", summary.bounce},
                    {"bounce_heldout_mse", summary.bounce_heldout_mse},
                    {"bounce_race_entries", summary.bounce_race_entries},
+                   {"bounce_carried", summary.bounce_carried},
                    {"render_seconds", render_clock.Seconds()},
                    {"size_tolerance", so.size_tolerance},
                    {"heldout_mse_path", summary.heldout_mse},

@@ -280,5 +280,43 @@ TEST(CasterBounce, AClearLoserOfTheFirstRaceIsNotFittedAgain) {
     EXPECT_DOUBLE_EQ(every.restart_heldout_mse[r], once.restart_heldout_mse[r]);
 }
 
+// Restarts on a scene whose image has no bounce: the direct model wins the
+// first restart's race, and its fits carried into the bounce model (where
+// they enter) leave that race as it was: the later restarts fit the direct
+// model alone, each carrying its fit again, as without carrying.
+TEST(CasterBounce, CarriedFitsLeaveTheFirstRaceToDecideTheLaterRestarts) {
+  shadowsg::testing::TempDir tmp;
+  const fs::path direct = SynthScene(tmp, "direct", TwoCasterSpec(0));
+  Scene scene = LoadScene(direct);
+  const PlanePixels pixels = FindPlanePixels(scene, BuildRayCaster(scene.Casters()));
+  ShadowPlaneModel model = PrepareShadowPlane(scene, direct, pixels, ShadingModel::kSg, QuietContext(2));
+  AddCasterBounce(scene, &model);
+  std::vector<Eigen::Vector3f> targets;
+  for (size_t k = 0; k < pixels.size(); ++k) targets.push_back(scene.image.rgb(pixels.pixel[k]).cast<float>());
+  SgSolverOptions o = SgSolverOptions::Budget("balanced");
+  o.fit_pixels = 600;
+  o.holdout_pixels = 300;
+  o.seed = 2;
+  SgSolverSummary carried, plain;
+  const SgLighting with = SolveSg(model, targets, o, &carried);
+  o.carry_direct_into_bounce = false;
+  const SgLighting without = SolveSg(model, targets, o, &plain);
+  std::printf("held-out without / with the bounce %s (carrying) %s (not); restarts carried %d\n",
+              Json(carried.bounce_heldout_mse).dump().c_str(), Json(plain.bounce_heldout_mse).dump().c_str(),
+              carried.bounce_carried);
+  EXPECT_EQ(plain.bounce_carried, 0);
+  ASSERT_EQ(plain.bounce_race_entries, (std::vector<int>{3, 1}));
+  EXPECT_EQ(carried.bounce_race_entries, plain.bounce_race_entries);
+  // The direct fits are the same; a carried fit can only lower the bounce
+  // model's best.
+  EXPECT_EQ(carried.bounce_heldout_mse[0], plain.bounce_heldout_mse[0]);
+  EXPECT_LE(carried.bounce_heldout_mse[1], plain.bounce_heldout_mse[1]);
+  if (carried.bounce_carried == 0) {
+    EXPECT_EQ(carried.bounce_heldout_mse[1], plain.bounce_heldout_mse[1]);
+    ASSERT_EQ(with.lobes.size(), without.lobes.size());
+    for (size_t i = 0; i < with.lobes.size(); ++i) EXPECT_EQ(with.lobes[i].axis, without.lobes[i].axis);
+  }
+}
+
 }  // namespace
 }  // namespace shadowsg

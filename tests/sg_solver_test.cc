@@ -372,6 +372,26 @@ TEST(SgSolver, PoolWithTheBounceKeepsEachLobesOwnBounce) {
   EXPECT_GT(Psnr(RenderShadowPlane(model, pooled), targets), 70.0);
 }
 
+// A direct-only fit carried into the model with the bounce: its amplitudes,
+// which held the bounce's light too, are re-solved with the bounce.
+TEST(SgSolver, DirectFitCarriedIntoTheBounceModelGivesTheBounceItsLight) {
+  ShadowPlaneModel model = SgTestModel(32);
+  model.normal = Eigen::Vector3d::UnitZ();
+  testing::AddTestCasterBounce(&model);
+  const SgLighting truth = Cases()[1].truth;
+  const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, truth);
+  const std::vector<double> weight(model.points.size(), 1.0);
+  SgLighting direct = truth;
+  for (SgLobe& l : direct.lobes) l.amplitude *= 1.15;
+  const SgLighting carried = CarryIntoBounce(model, weight, targets, direct, SgSolverOptions::Budget("fast"));
+  ASSERT_EQ(carried.lobes.size(), truth.lobes.size());
+  const double before = Psnr(RenderShadowPlane(model, direct), targets);
+  const double after = Psnr(RenderShadowPlane(model, carried), targets);
+  std::printf("with the bounce: direct fit %.1f dB, carried %.1f dB\n", before, after);
+  EXPECT_LT(before, 30.0);
+  EXPECT_GT(after, 80.0);
+}
+
 // One fit (one restart, one model): its pool with the sharpness copies takes
 // its place only where the held-out error falls; otherwise the fit is kept as
 // it was.
