@@ -241,18 +241,25 @@ TEST(CasterBounce, SolverKeepsTheBounceWhereTheImageHasIt) {
   EXPECT_FALSE(plain["report"]["bounce"].get<bool>());
 }
 
+// A scene's plane model with the casters' bounce, and its image at the
+// plane pixels: what SolveSg takes.
+std::pair<ShadowPlaneModel, std::vector<Eigen::Vector3f>> ModelWithBounce(const fs::path& dir) {
+  Scene scene = LoadScene(dir);
+  const PlanePixels pixels = FindPlanePixels(scene, BuildRayCaster(scene.Casters()));
+  ShadowPlaneModel model = PrepareShadowPlane(scene, dir, pixels, ShadingModel::kSg, QuietContext(2));
+  AddCasterBounce(scene, &model);
+  std::vector<Eigen::Vector3f> targets;
+  for (size_t k = 0; k < pixels.size(); ++k) targets.push_back(scene.image.rgb(pixels.pixel[k]).cast<float>());
+  return {std::move(model), std::move(targets)};
+}
+
 // Restarts on a scene whose image has the bounce: the model without it
 // loses the first restart's race clearly and is not fitted again; the
 // winner's fits are those of racing every restart.
 TEST(CasterBounce, AClearLoserOfTheFirstRaceIsNotFittedAgain) {
   shadowsg::testing::TempDir tmp;
   const fs::path bounced = SynthScene(tmp, "bounced", TwoCasterSpec(2));
-  Scene scene = LoadScene(bounced);
-  const PlanePixels pixels = FindPlanePixels(scene, BuildRayCaster(scene.Casters()));
-  ShadowPlaneModel model = PrepareShadowPlane(scene, bounced, pixels, ShadingModel::kSg, QuietContext(2));
-  AddCasterBounce(scene, &model);
-  std::vector<Eigen::Vector3f> targets;
-  for (size_t k = 0; k < pixels.size(); ++k) targets.push_back(scene.image.rgb(pixels.pixel[k]).cast<float>());
+  const auto [model, targets] = ModelWithBounce(bounced);
   SgSolverOptions o = SgSolverOptions::Budget("balanced");
   ASSERT_EQ(o.restarts, 3);
   ASSERT_TRUE(o.bounce_race_once);
@@ -281,18 +288,13 @@ TEST(CasterBounce, AClearLoserOfTheFirstRaceIsNotFittedAgain) {
 }
 
 // Restarts on a scene whose image has no bounce: the direct model wins the
-// first restart's race, and its fits carried into the bounce model (where
-// they enter) leave that race as it was: the later restarts fit the direct
-// model alone, each carrying its fit again, as without carrying.
+// first restart's race, and a fit carried into the bounce model (where one
+// enters) leaves that race as it was: the later restarts fit the direct
+// model alone, as without carrying.
 TEST(CasterBounce, CarriedFitsLeaveTheFirstRaceToDecideTheLaterRestarts) {
   shadowsg::testing::TempDir tmp;
   const fs::path direct = SynthScene(tmp, "direct", TwoCasterSpec(0));
-  Scene scene = LoadScene(direct);
-  const PlanePixels pixels = FindPlanePixels(scene, BuildRayCaster(scene.Casters()));
-  ShadowPlaneModel model = PrepareShadowPlane(scene, direct, pixels, ShadingModel::kSg, QuietContext(2));
-  AddCasterBounce(scene, &model);
-  std::vector<Eigen::Vector3f> targets;
-  for (size_t k = 0; k < pixels.size(); ++k) targets.push_back(scene.image.rgb(pixels.pixel[k]).cast<float>());
+  const auto [model, targets] = ModelWithBounce(direct);
   SgSolverOptions o = SgSolverOptions::Budget("balanced");
   o.fit_pixels = 600;
   o.holdout_pixels = 300;

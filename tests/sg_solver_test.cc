@@ -31,6 +31,14 @@ ShadowPlaneModel SgTestModel(int grid) {
   return model;
 }
 
+// The same, with a ball's bounce onto the plane.
+ShadowPlaneModel SgTestModelWithBounce() {
+  ShadowPlaneModel model = SgTestModel(32);
+  model.normal = Eigen::Vector3d::UnitZ();
+  testing::AddTestCasterBounce(&model);
+  return model;
+}
+
 double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) * 180 / M_PI;
 }
@@ -350,9 +358,7 @@ TEST(SgSolver, PoolBlendsSharpnessCopies) {
 // of its lobes, which must follow the lobes into elimination order (a lobe
 // the light lacks goes last, so that order is not the input's).
 TEST(SgSolver, PoolWithTheBounceKeepsEachLobesOwnBounce) {
-  ShadowPlaneModel model = SgTestModel(32);
-  model.normal = Eigen::Vector3d::UnitZ();
-  testing::AddTestCasterBounce(&model);
+  const ShadowPlaneModel model = SgTestModelWithBounce();
   const SgLighting truth = Cases()[1].truth;
   const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, truth);
   const std::vector<double> weight(model.points.size(), 1.0);
@@ -375,9 +381,7 @@ TEST(SgSolver, PoolWithTheBounceKeepsEachLobesOwnBounce) {
 // A direct-only fit carried into the model with the bounce: its amplitudes,
 // which held the bounce's light too, are re-solved with the bounce.
 TEST(SgSolver, DirectFitCarriedIntoTheBounceModelGivesTheBounceItsLight) {
-  ShadowPlaneModel model = SgTestModel(32);
-  model.normal = Eigen::Vector3d::UnitZ();
-  testing::AddTestCasterBounce(&model);
+  const ShadowPlaneModel model = SgTestModelWithBounce();
   const SgLighting truth = Cases()[1].truth;
   const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, truth);
   const std::vector<double> weight(model.points.size(), 1.0);
