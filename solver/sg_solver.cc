@@ -226,6 +226,12 @@ double WeightedMse(const ShadowPlaneModel& model, const SgLighting& l, const std
 }
 
 // Radiant power of a lobe (its integral over the sphere), summed over RGB.
+// A finished fit's held-out error; a fit left without lobes never wins.
+double HeldOutMse(const ShadowPlaneModel& hold_model, const SgLighting& l,
+                  const std::vector<Eigen::Vector3f>& hold_targets) {
+  return l.lobes.empty() ? std::numeric_limits<double>::infinity() : WeightedMse(hold_model, l, {}, hold_targets);
+}
+
 double Power(const SgLobe& l) { return SgIntegral(l).sum(); }
 
 // Mean resultant length of a vMF-like lobe of sharpness lambda, and back:
@@ -736,8 +742,7 @@ FitResult FinishFit(FitRun&& run, double signal, const SgSolverOptions& o) {
   sum.invalid_lobes_removed = RemoveInvalidLobes(&lighting);
   sum.lobes_kept = static_cast<int>(lighting.lobes.size());
   FitResult r;
-  r.heldout_mse = lighting.lobes.empty() ? std::numeric_limits<double>::infinity()
-                                         : WeightedMse(*run.hold_model, lighting, {}, *run.hold_targets);
+  r.heldout_mse = HeldOutMse(*run.hold_model, lighting, *run.hold_targets);
   r.lighting = std::move(lighting);
   r.sum = sum;
   return r;
@@ -753,8 +758,7 @@ FitResult CarryFit(const FitResult& direct, const FitData& d, const ShadowPlaneM
   r.sum.refine_iterations = o.refine_iterations;
   r.sum.fit_mse_refined = WeightedMse(d.model, r.lighting, d.weight, d.targets);
   r.sum.lobes_kept = static_cast<int>(r.lighting.lobes.size());
-  r.heldout_mse = r.lighting.lobes.empty() ? std::numeric_limits<double>::infinity()
-                                           : WeightedMse(hold_model, r.lighting, {}, hold_targets);
+  r.heldout_mse = HeldOutMse(hold_model, r.lighting, hold_targets);
   r.sum.refine_seconds = Since(t0);
   return r;
 }
@@ -881,8 +885,7 @@ FitResult PoolFits(const std::vector<FitData>& sets, bool bounce, const std::vec
                      bounce ? &irradiance : nullptr);
   r.sum.fit_mse_refined = r.sum.fit_mse_selected;
   r.sum.lobes_kept = static_cast<int>(r.lighting.lobes.size());
-  r.heldout_mse = r.lighting.lobes.empty() ? std::numeric_limits<double>::infinity()
-                                           : WeightedMse(hold_model, r.lighting, {}, hold_targets);
+  r.heldout_mse = HeldOutMse(hold_model, r.lighting, hold_targets);
   return r;
 }
 
