@@ -225,13 +225,13 @@ double WeightedMse(const ShadowPlaneModel& model, const SgLighting& l, const std
   return se / wsum;
 }
 
-// Radiant power of a lobe (its integral over the sphere), summed over RGB.
 // A finished fit's held-out error; a fit left without lobes never wins.
 double HeldOutMse(const ShadowPlaneModel& hold_model, const SgLighting& l,
                   const std::vector<Eigen::Vector3f>& hold_targets) {
   return l.lobes.empty() ? std::numeric_limits<double>::infinity() : WeightedMse(hold_model, l, {}, hold_targets);
 }
 
+// Radiant power of a lobe (its integral over the sphere), summed over RGB.
 double Power(const SgLobe& l) { return SgIntegral(l).sum(); }
 
 // Mean resultant length of a vMF-like lobe of sharpness lambda, and back:
