@@ -182,6 +182,7 @@ std::vector<Eigen::Vector3d> ShadeSurface(const std::vector<SurfaceSample>& samp
   for (const auto& l : sg.lobes) {
     ProductLobe flattest;
     flattest.lambda_prime = std::abs(l.sharpness - kCosineLobeSharpness);
+    flattest.max_steepness = kSgMaxVisibilitySteepness;
     caps.push_back(VisibilityCap(flattest));
   }
   Eigen::MatrixXf theta;
@@ -200,7 +201,8 @@ std::vector<Eigen::Vector3d> ShadeSurface(const std::vector<SurfaceSample>& samp
       const SgLobe& lobe = sg.lobes[j];
       // lambda' (the shadow's softness) as EvalProductLobe gives it; the
       // unoccluded integral exactly (CosineModel::kExact), from the table.
-      ProductLobe product = EvalProductLobe(lobe.axis, lobe.sharpness, s.normal, CosineModel::kSgProduct);
+      ProductLobe product = EvalProductLobe(lobe.axis, lobe.sharpness, s.normal, CosineModel::kSgProduct,
+                                            /*derivatives=*/true, kSgMaxVisibilitySteepness);
       product.scale = (*table[j])(lobe.axis.dot(s.normal));
       const double theta_plane = std::asin(std::clamp(side * lobe.axis.dot(plane.normal), -1.0, 1.0));
       const double t = std::min(static_cast<double>(theta(k, static_cast<long>(j))), theta_plane);
@@ -227,7 +229,8 @@ std::vector<char> VirtualObjectsMatter(const Scene& scene, const std::vector<Sph
     if (!scene.objects[i].is_train && !world_tree[i].nodes.empty()) bounds.push_back(SubtreeBounds(world_tree[i])[0]);
   std::vector<float> caps;
   for (const auto& l : sg.lobes)
-    caps.push_back(VisibilityCap(EvalProductLobe(l.axis, l.sharpness, without.normal, CosineModel::kSgProduct)));
+    caps.push_back(VisibilityCap(EvalProductLobe(l.axis, l.sharpness, without.normal, CosineModel::kSgProduct,
+                                                 /*derivatives=*/false, without.max_steepness)));
   std::vector<char> matter(without.points.size(), 0);
   if (bounds.empty()) return matter;
 #pragma omp parallel for schedule(static)

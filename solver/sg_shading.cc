@@ -8,8 +8,9 @@
 namespace shadowsg {
 
 ProductLobe EvalProductLobe(const Eigen::Vector3d& mu, double lambda, const Eigen::Vector3d& n, CosineModel cosine,
-                            bool derivatives) {
+                            bool derivatives, double max_steepness) {
   ProductLobe p;
+  p.max_steepness = max_steepness;
   const Eigen::Vector3d v = lambda * mu + kCosineLobeSharpness * n;
   const double lp = v.norm();
   p.lambda_prime = lp;
@@ -40,7 +41,7 @@ ProductLobe EvalProductLobe(const Eigen::Vector3d& mu, double lambda, const Eige
 
 LobeShading ShadeLobe(const ProductLobe& p, double theta, const Eigen::Vector3d& dtheta_dmu, double occluder_cos) {
   LobeShading s;
-  const double k = VisibilitySteepness(p.lambda_prime);
+  const double k = p.steepness();
   const double z = k * theta;
   // Fully visible: no occluder at all, or the sigmoid saturated (most (point,
   // lobe) pairs of a sharp lobe, whose shadow covers little of the plane; the
@@ -52,7 +53,7 @@ LobeShading ShadeLobe(const ProductLobe& p, double theta, const Eigen::Vector3d&
     s.dvalue_dmu = p.dscale_dmu;
     return s;
   }
-  const double dk = VisibilitySteepnessDerivative(p.lambda_prime);
+  const double dk = p.dsteepness();
   s.sigma = z >= 0 ? 1 / (1 + std::exp(-z)) : std::exp(z) / (1 + std::exp(z));
   const double dsig_dz = s.sigma * (1 - s.sigma);
   if (occluder_cos < -1) {

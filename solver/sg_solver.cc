@@ -183,7 +183,8 @@ void AtomColumn(const ShadowPlaneModel& model, const Eigen::MatrixXf& theta, con
       out[r] = static_cast<float>(model.exact->Shade(model.exact_table->View(r), lobe, false).value);
     return;
   }
-  const ProductLobe p = EvalProductLobe(axis, atom.lambda, model.normal, model.cosine, /*derivatives=*/false);
+  const ProductLobe p =
+      EvalProductLobe(axis, atom.lambda, model.normal, model.cosine, /*derivatives=*/false, model.max_steepness);
   for (long r = 0; r < theta.rows(); ++r)
     out[r] = static_cast<float>(
         ShadeLobe(p, theta(r, atom.axis), Eigen::Vector3d::Zero(),
@@ -902,7 +903,7 @@ Eigen::MatrixXf DictionaryAngles(const ShadowPlaneModel& fit, const std::vector<
   for (long a = 0; a < static_cast<long>(axes.size()); ++a)
     for (double l : sharpness)
       if (l > flattest) {
-        const ProductLobe p = EvalProductLobe(axes[a], l, fit.normal, fit.cosine, /*derivatives=*/false);
+        const ProductLobe p = EvalProductLobe(axes[a], l, fit.normal, fit.cosine, /*derivatives=*/false, fit.max_steepness);
         caps[a] = std::max(caps[a], VisibilityCap(p, kFloatSaturation));
       }
   if (!capped) {  // one sharpness value: it needs theta everywhere

@@ -34,7 +34,7 @@ std::vector<size_t> ActiveLobes(const ShadowPlaneModel& model, const SgLighting&
 }  // namespace
 
 float VisibilityCap(const ProductLobe& product, double saturation) {
-  return static_cast<float>(saturation / VisibilitySteepness(product.lambda_prime));
+  return static_cast<float>(saturation / product.steepness());
 }
 
 std::vector<float> OccluderConeCosines(const std::vector<SphereTree>& trees, const std::vector<Eigen::Vector3d>& points) {
@@ -86,6 +86,7 @@ ShadowPlaneModel MakeShadowPlaneModel(const Plane& plane, const std::vector<Eige
     // sunrise loses 0.6 dB with a 4 dB seed spread (README).
     model.cap_occlusion = true;
     model.upper_hemisphere_only = false;
+    model.max_steepness = kSgMaxVisibilitySteepness;
   }
   model.points = points;
   model.normal = plane.normal;
@@ -143,7 +144,8 @@ Eigen::MatrixXf DirectLobeShading(const ShadowPlaneModel& model, const std::vect
   std::vector<float> caps(nl);
 #pragma omp parallel for schedule(static) if (nl > 16)
   for (long i = 0; i < nl; ++i) {
-    products[i] = EvalProductLobe(axes[i], sharpness[i], model.normal, model.cosine, /*derivatives=*/false);
+    products[i] = EvalProductLobe(axes[i], sharpness[i], model.normal, model.cosine, /*derivatives=*/false,
+                                  model.max_steepness);
     caps[i] = VisibilityCap(products[i]);
   }
   std::vector<long> column(nl);  // theta's column of each lobe
@@ -314,7 +316,7 @@ std::vector<Eigen::Vector3f> RenderDirect(const ShadowPlaneModel& model, const S
   std::vector<ProductLobe> products;
   for (size_t i : active)
     products.push_back(EvalProductLobe(lighting.lobes[i].axis, lighting.lobes[i].sharpness, model.normal, model.cosine,
-                                       /*derivatives=*/false));
+                                       /*derivatives=*/false, model.max_steepness));
   std::vector<float> caps;
   for (const ProductLobe& p : products) caps.push_back(VisibilityCap(p));
   std::vector<Eigen::Vector3f> out(model.points.size(), Eigen::Vector3f::Zero());
@@ -348,7 +350,9 @@ double MseAndGradient(const ShadowPlaneModel& model, const SgLighting& lighting,
   const std::vector<size_t> active = ActiveLobes(model, lighting, &axes);
   const size_t na = active.size();
   std::vector<ProductLobe> products;
-  for (size_t i : active) products.push_back(EvalProductLobe(lighting.lobes[i].axis, lighting.lobes[i].sharpness, model.normal, model.cosine));
+  for (size_t i : active)
+    products.push_back(EvalProductLobe(lighting.lobes[i].axis, lighting.lobes[i].sharpness, model.normal, model.cosine,
+                                       /*derivatives=*/true, model.max_steepness));
   std::vector<Eigen::Vector3d> xs;
   xs.reserve(points.size());
   for (size_t i : points) xs.push_back(model.points[i]);

@@ -32,6 +32,9 @@ struct ShadowPlaneModel {
   // cosine of the half-angle of a cone around every caster.
   bool cap_occlusion = false;
   std::vector<float> occluder_cos;
+  // The visibility sigmoid's steepness is capped here (ProductLobe::max_steepness):
+  // `sg` caps it (kSgMaxVisibilitySteepness), the paper's model does not.
+  double max_steepness = kUncappedSteepness;
   // Optional cone tables of `points` (PrepareCones): repeated renders of the
   // same points then skip the per-point table set-up.
   OccluderCones cones;

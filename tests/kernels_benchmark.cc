@@ -90,6 +90,7 @@ void BM_RenderShadowPlane(benchmark::State& state) {
   model.occluders = {TorusTree()};
   model.cosine = CosineModel::kExact;
   model.cap_occlusion = true;
+  model.max_steepness = kSgMaxVisibilitySteepness;
   model.occluder_cos = OccluderConeCosines(model.occluders, model.points);
   SgLighting l;
   for (const auto& a : Axes(static_cast<int>(state.range(1)))) l.lobes.push_back({a, 30.0, Eigen::Vector3d::Ones()});
@@ -113,6 +114,7 @@ void BM_RefineByLm(benchmark::State& state) {
   model.PrepareCones();
   model.cosine = CosineModel::kExact;
   model.cap_occlusion = true;
+  model.max_steepness = kSgMaxVisibilitySteepness;
   model.occluder_cos = OccluderConeCosines(model.occluders, model.points);
   if (state.range(2)) {
     model.normal = Eigen::Vector3d::UnitZ();

@@ -181,6 +181,42 @@ TEST(SgShading, SaturatedVisibilityJoinsTheSigmoidWithoutAStep) {
   EXPECT_EQ(checked, 9);
 }
 
+// `sg` caps the sigmoid's steepness (kSgMaxVisibilitySteepness); the paper's
+// model does not. A sharp lobe then keeps a finite shadow edge whose width
+// the cap sets, its derivatives stay consistent, and the occluder searches
+// stop where the capped sigmoid saturates; a broad lobe is shaded as before.
+TEST(SgShading, SgCapsTheSigmoidSteepnessOfSharpLobes) {
+  const Eigen::Vector3d n = Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d mu = Eigen::Vector3d(0.3, -0.2, 0.9).normalized();
+  const Eigen::Vector3d dtheta(0.4, -1.1, 0.2);
+  const ProductLobe paper = EvalProductLobe(mu, 250.0, n, CosineModel::kExact, true, kUncappedSteepness);
+  const ProductLobe sg = EvalProductLobe(mu, 250.0, n, CosineModel::kExact, true, kSgMaxVisibilitySteepness);
+  EXPECT_GT(paper.steepness(), 1e6);
+  EXPECT_EQ(sg.steepness(), kSgMaxVisibilitySteepness);
+  EXPECT_EQ(sg.dsteepness(), 0.0);
+  // 1e-3 rad outside the occluder: the paper's edge is long past, sg's is not.
+  const double theta = 1e-3;
+  EXPECT_EQ(ShadeLobe(paper, theta, dtheta).value, paper.scale);
+  EXPECT_NEAR(ShadeLobe(sg, theta, dtheta).value / sg.scale, 1 / (1 + std::exp(-kSgMaxVisibilitySteepness * theta)), 1e-12);
+  EXPECT_FLOAT_EQ(VisibilityCap(sg), static_cast<float>(kSigmoidSaturation / kSgMaxVisibilitySteepness));
+  EXPECT_EQ(ShadeLobe(sg, VisibilityCap(sg) * (1 + 1e-6), dtheta).value, sg.scale);
+  // The capped lobe's sharpness derivative (the steepness constant there)
+  // against central differences, with and without the occluder cap.
+  for (double occluder_cos : {kNoOcclusionCap, 0.95}) {
+    const double h = 1e-4;
+    auto value = [&](double l) {
+      return ShadeLobe(EvalProductLobe(mu, l, n, CosineModel::kExact, true, kSgMaxVisibilitySteepness), -theta, dtheta,
+                       occluder_cos).value;
+    };
+    const LobeShading s = ShadeLobe(sg, -theta, dtheta, occluder_cos);
+    EXPECT_LT(RelErr(s.dvalue_dlambda, (value(250.0 + h) - value(250.0 - h)) / (2 * h)), 1e-5) << occluder_cos;
+  }
+  // Below the cap (a broad lobe) both models shade alike.
+  const ProductLobe broad_paper = EvalProductLobe(mu, 2.0, n, CosineModel::kExact, true, kUncappedSteepness);
+  const ProductLobe broad_sg = EvalProductLobe(mu, 2.0, n, CosineModel::kExact, true, kSgMaxVisibilitySteepness);
+  EXPECT_EQ(ShadeLobe(broad_paper, -0.05, dtheta, 0.6).value, ShadeLobe(broad_sg, -0.05, dtheta, 0.6).value);
+}
+
 // MseAndGradient assembles the per-lobe derivatives; theta is single
 // precision there, so the check is looser than the double-precision ones.
 TEST(ShadowPlane, MseGradientMatchesFiniteDifferences) {

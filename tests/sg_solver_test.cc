@@ -24,10 +24,12 @@ double Psnr(const std::vector<Eigen::Vector3f>& r, const std::vector<Eigen::Vect
   return 10 * std::log10(range * range / (se / (3.0 * gt.size())));
 }
 
-// The closed-form test plane as `sg` models it: exact cosine, every lobe kept.
+// The closed-form test plane as `sg` models it: exact cosine, every lobe
+// kept, the sigmoid's steepness capped.
 ShadowPlaneModel SgTestModel(int grid) {
   ShadowPlaneModel model = TestPlaneModel(grid, CosineModel::kExact);
   model.upper_hemisphere_only = false;
+  model.max_steepness = kSgMaxVisibilitySteepness;
   return model;
 }
 
@@ -113,10 +115,12 @@ TEST(SgSolver, PathPairsTakeTwoLobesAStep) {
   SolveSg(model, targets, o, &singles);
   o.path_pairs_from = 1;
   const SgLighting est = SolveSg(model, targets, o, &pairs);
-  // Singles: one step a lobe (fewer where the refinement dropped one, or
-  // the merged lobes ran out). Pairs: sizes 1, 3, 5, 7 at most.
+  // Singles: one step a lobe (fewer where the merged lobes ran out, more
+  // where a refinement dropped one and the path took it again). Pairs:
+  // two a step, so about half as many (here 9 and 5).
   ASSERT_GE(singles.heldout_mse.size(), 5u);
-  EXPECT_LE(pairs.heldout_mse.size(), 4u);
+  EXPECT_LE(pairs.heldout_mse.size(), (singles.heldout_mse.size() + 1) / 2 + 1)
+      << singles.heldout_mse.size();
   EXPECT_LT(pairs.heldout_mse.size(), singles.heldout_mse.size());
   EXPECT_LE(est.lobes.size(), 7u);
   EXPECT_EQ(singles.heldout_mse[0], pairs.heldout_mse[0]);  // the first step is the same one lobe
@@ -525,6 +529,7 @@ TEST(SgSolver, LaterRestartsFitTheFirstRacesSurvivors) {
 TEST(SgSolver, DictionaryAnglesStopWhereOnlyTheFlattestAtomsStillSeeTheShadow) {
   ShadowPlaneModel model = SgTestModel(32);
   model.cap_occlusion = true;
+  model.max_steepness = kSgMaxVisibilitySteepness;
   model.occluder_cos = OccluderConeCosines(model.occluders, model.points);
   model.PrepareCones();
   const std::vector<Eigen::Vector3d> axes = FibonacciHemisphereAxes(160, model.normal);
@@ -537,7 +542,8 @@ TEST(SgSolver, DictionaryAnglesStopWhereOnlyTheFlattestAtomsStillSeeTheShadow) {
 
   std::vector<ProductLobe> lobes;  // [a * sharpness + s]
   for (const Eigen::Vector3d& axis : axes)
-    for (double l : sharpness) lobes.push_back(EvalProductLobe(axis, l, model.normal, model.cosine, false));
+    for (double l : sharpness)
+      lobes.push_back(EvalProductLobe(axis, l, model.normal, model.cosine, false, model.max_steepness));
   size_t stopped = 0;
   std::vector<double> worst(sharpness.size(), 0), largest(sharpness.size(), 0);
   for (long p = 0; p < exact.rows(); ++p)
