@@ -978,6 +978,7 @@ std::vector<char> LaterRestartModels(const std::vector<char>& first_racing, cons
   if (!o.bounce_race_once) return std::vector<char>(first_racing.size(), 1);
   std::vector<char> later = first_racing;
   if (o.close_race_to_bounce && later.size() == 2 && later[0] && later[1]) later[0] = 0;
+  if (o.later_restarts_bounce && later.size() == 2) later = {0, 1};
   return later;
 }
 

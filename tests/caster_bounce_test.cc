@@ -289,13 +289,24 @@ TEST(CasterBounce, AClearLoserOfTheFirstRaceIsNotFittedAgain) {
 
 // Restarts on a scene whose image has no bounce: the direct model wins the
 // first restart's race, and a fit carried into the bounce model (where one
-// enters) leaves that race as it was: the later restarts fit the direct
-// model alone, as without carrying.
+// enters) leaves that race as it was: where the race decides the later
+// restarts (later_restarts_bounce off), they fit the direct model alone, as
+// without carrying. By default they fit the model with the bounce.
 TEST(CasterBounce, CarriedFitsLeaveTheFirstRaceToDecideTheLaterRestarts) {
   shadowsg::testing::TempDir tmp;
   const fs::path direct = SynthScene(tmp, "direct", TwoCasterSpec(0));
   const auto [model, targets] = ModelWithBounce(direct);
   SgSolverOptions o = SgSolverOptions::Budget("balanced");
+  ASSERT_TRUE(o.later_restarts_bounce);
+  SgSolverSummary later;
+  o.fit_pixels = 600;
+  o.holdout_pixels = 300;
+  o.seed = 2;
+  SolveSg(model, targets, o, &later);
+  EXPECT_EQ(later.bounce_race_entries, (std::vector<int>{1, 3}));
+  ASSERT_EQ(later.bounce_heldout_mse.size(), 2u);
+  EXPECT_TRUE(std::isfinite(later.bounce_heldout_mse[0]));  // the direct model's first fit is judged
+  o.later_restarts_bounce = false;
   o.fit_pixels = 600;
   o.holdout_pixels = 300;
   o.seed = 2;

@@ -503,13 +503,20 @@ TEST(SgSolver, BounceRaceDropsOnlyAClearLoser) {
   EXPECT_FALSE(BounceRaceDrops(6, 9, 1.0, 1.09, /*paths_ended=*/true));
 }
 
-// The later restarts fit the first race's survivors; after a close race
-// (both survived) the model with the bounce alone, unless told otherwise.
+// The later restarts fit the model with the bounce whatever the first race
+// said; told otherwise, the first race's survivors, and after a close race
+// (both survived) the model with the bounce alone.
 TEST(SgSolver, LaterRestartsFitTheFirstRacesSurvivors) {
   using Models = std::vector<char>;
   SgSolverOptions o = SgSolverOptions::Budget("balanced");
   ASSERT_TRUE(o.bounce_race_once);
   ASSERT_TRUE(o.close_race_to_bounce);
+  ASSERT_TRUE(o.later_restarts_bounce);
+  EXPECT_EQ(LaterRestartModels(Models{1, 0}, o), (Models{0, 1}));  // the direct model won the first race
+  EXPECT_EQ(LaterRestartModels(Models{0, 1}, o), (Models{0, 1}));
+  EXPECT_EQ(LaterRestartModels(Models{1, 1}, o), (Models{0, 1}));
+  EXPECT_EQ(LaterRestartModels(Models{1}, o), (Models{1}));
+  o.later_restarts_bounce = false;
   EXPECT_EQ(LaterRestartModels(Models{1, 0}, o), (Models{1, 0}));
   EXPECT_EQ(LaterRestartModels(Models{0, 1}, o), (Models{0, 1}));
   EXPECT_EQ(LaterRestartModels(Models{1, 1}, o), (Models{0, 1}));
