@@ -82,7 +82,8 @@ void RefineCost::Update(const std::vector<Eigen::Vector3d>& axes, const std::vec
 #pragma omp parallel for schedule(static) if (need_product.size() > 1)
   for (size_t q = 0; q < need_product.size(); ++q) {
     const int i = need_product[q];
-    cache_[i].product = EvalProductLobe(axes[i], lambda[i], model_.normal, model_.cosine, derivatives, model_.max_steepness);
+    cache_[i].product =
+        EvalProductLobe(axes[i], lambda[i], model_.normal, model_.cosine, derivatives, model_.max_steepness);
     cache_[i].product_derivatives = derivatives;
   }
   if (!stale.empty() && !model_.exact) {
@@ -188,7 +189,8 @@ bool RefineCost::CostExceeds(const std::vector<SgLobe>& lobes, double limit) con
   std::vector<float> caps(lobes_);
   for (int j = 0; j < lobes_; ++j) {
     axes[j] = lobes[j].axis;
-    products[j] = EvalProductLobe(axes[j], lobes[j].sharpness, model_.normal, model_.cosine, false, model_.max_steepness);
+    products[j] =
+        EvalProductLobe(axes[j], lobes[j].sharpness, model_.normal, model_.cosine, false, model_.max_steepness);
     caps[j] = VisibilityCap(products[j]);
   }
   // The lobes' bounce at the points, summed (as Evaluate's residuals have it).

@@ -903,7 +903,8 @@ Eigen::MatrixXf DictionaryAngles(const ShadowPlaneModel& fit, const std::vector<
   for (long a = 0; a < static_cast<long>(axes.size()); ++a)
     for (double l : sharpness)
       if (l > flattest) {
-        const ProductLobe p = EvalProductLobe(axes[a], l, fit.normal, fit.cosine, /*derivatives=*/false, fit.max_steepness);
+        const ProductLobe p =
+            EvalProductLobe(axes[a], l, fit.normal, fit.cosine, /*derivatives=*/false, fit.max_steepness);
         caps[a] = std::max(caps[a], VisibilityCap(p, kFloatSaturation));
       }
   if (!capped) {  // one sharpness value: it needs theta everywhere

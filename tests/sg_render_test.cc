@@ -197,7 +197,8 @@ TEST(SgShading, SgCapsTheSigmoidSteepnessOfSharpLobes) {
   // 1e-3 rad outside the occluder: the paper's edge is long past, sg's is not.
   const double theta = 1e-3;
   EXPECT_EQ(ShadeLobe(paper, theta, dtheta).value, paper.scale);
-  EXPECT_NEAR(ShadeLobe(sg, theta, dtheta).value / sg.scale, 1 / (1 + std::exp(-kSgMaxVisibilitySteepness * theta)), 1e-12);
+  EXPECT_NEAR(ShadeLobe(sg, theta, dtheta).value / sg.scale, 1 / (1 + std::exp(-kSgMaxVisibilitySteepness * theta)),
+              1e-12);
   EXPECT_FLOAT_EQ(VisibilityCap(sg), static_cast<float>(kSigmoidSaturation / kSgMaxVisibilitySteepness));
   EXPECT_EQ(ShadeLobe(sg, VisibilityCap(sg) * (1 + 1e-6), dtheta).value, sg.scale);
   // The capped lobe's sharpness derivative (the steepness constant there)
