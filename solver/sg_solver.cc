@@ -977,9 +977,9 @@ bool BounceRaceDrops(size_t steps, size_t other_steps, double best, double other
 
 std::vector<char> LaterRestartModels(const std::vector<char>& first_racing, const SgSolverOptions& o) {
   if (!o.bounce_race_once) return std::vector<char>(first_racing.size(), 1);
+  if (o.later_restarts_bounce && first_racing.size() == 2) return {0, 1};
   std::vector<char> later = first_racing;
   if (o.close_race_to_bounce && later.size() == 2 && later[0] && later[1]) later[0] = 0;
-  if (o.later_restarts_bounce && later.size() == 2) later = {0, 1};
   return later;
 }
 
