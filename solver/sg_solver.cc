@@ -1155,13 +1155,24 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   // takes its place where its held-out error is lower: no judging set is
   // built for it (0.2 s on pub_torus_sunrise, fast).
   std::vector<char> pooled(nv, 0);
+  int pooled_direct = 0;
   if (o.pool_restarts)
     for (size_t v = 0; v < nv; ++v) {
       const bool one = fits[v].size() == 1;
       if (fits[v].empty() || (one && (o.pool_sharpness.empty() || o.lobes > 0))) continue;
       Report(progress, 0.99, one ? "pooling the fit's lobes" : "pooling the restarts");
       const auto t0 = Clock::now();
-      FitResult pool = PoolFits(sets, has_bounce(v), fits[v], hold_for(v), hold_targets, o);
+      // The model with the bounce pools the direct model's fits too
+      // (pool_across_models): their lobes, amplitudes re-solved with the
+      // bounce, are candidates like its own. The direct model's own pool of
+      // several restarts holds nothing new.
+      std::vector<FitResult> members = fits[v];
+      if (o.pool_across_models && has_bounce(v) && nv == 2) {
+        const size_t direct = fits[0].size() - (pooled[0] && fits[0].size() > 1 ? 1 : 0);
+        members.insert(members.end(), fits[0].begin(), fits[0].begin() + static_cast<long>(direct));
+        pooled_direct = static_cast<int>(direct);
+      }
+      FitResult pool = PoolFits(sets, has_bounce(v), members, hold_for(v), hold_targets, o);
       pool.sum.select_seconds = Since(t0);
       if (!one) {
         fits[v].push_back(std::move(pool));
@@ -1247,6 +1258,7 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   sum.bounce = has_bounce(v_best);
   if (nv > 1) sum.bounce_heldout_mse = best_seen, sum.bounce_race_entries = entries;
   sum.bounce_carried = carried;
+  sum.pooled_direct_fits = pooled_direct;
   sum.seconds = Since(start);
   Report(progress, 1.0, std::to_string(sum.lobes_kept) + " lobes");
   if (summary) *summary = sum;

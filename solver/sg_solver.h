@@ -128,6 +128,12 @@ struct SgSolverOptions {
   // 0.23-0.56 dB (fast) and 0.13-0.27 (balanced), the interior's balanced
   // spread 0.30 -> 0.23, at 0.98-1.07x the time (README).
   std::vector<double> pool_sharpness = {0.25, 0.5, 2};
+  // The pool of the model with the casters' bounce also holds the direct
+  // model's finished fits (amplitudes re-solved with the bounce). On
+  // pub_torus_sunsky the direct fit places the sun well with 2-3 lobes while
+  // the bounce model's own fits vary with the pixels; together they reach
+  // lower (balanced, 10 seeds, README).
+  bool pool_across_models = true;
   // When the model has the casters' bounce: also fit without it and keep
   // whichever has the lower held-out error (up to twice the time).
   bool choose_bounce = true;
@@ -191,6 +197,7 @@ struct SgSolverSummary {
                                             // carried into it)
   std::vector<int> bounce_race_entries;     // choose_bounce: restarts each model was fitted in (bounce_race_once)
   int bounce_carried = 0;                   // restarts whose bounce fit is their direct fit carried into it
+  int pooled_direct_fits = 0;               // direct fits in the bounce model's pool (pool_across_models)
   // Each part's time summed over the fits (later restarts run side by side,
   // so the parts may add up to more than `seconds`, the solve's wall time).
   double theta_seconds = 0, select_seconds = 0, refine_seconds = 0, seconds = 0;

@@ -115,6 +115,7 @@ LightingEstimate SolveWithSg(Scene& scene, const fs::path& scene_dir, const Plan
                    {"bounce_heldout_mse", summary.bounce_heldout_mse},
                    {"bounce_race_entries", summary.bounce_race_entries},
                    {"bounce_carried", summary.bounce_carried},
+                   {"pooled_direct_fits", summary.pooled_direct_fits},
                    {"render_seconds", render_clock.Seconds()},
                    {"size_tolerance", so.size_tolerance},
                    {"heldout_mse_path", summary.heldout_mse},

@@ -331,5 +331,32 @@ TEST(CasterBounce, CarriedFitsLeaveTheFirstRaceToDecideTheLaterRestarts) {
   }
 }
 
+// On a scene whose image has no bounce the direct model's first fit
+// finishes; its lobes join the bounce model's pool of restarts
+// (pool_across_models) and nowhere else: the fits themselves are those of
+// solving without it.
+TEST(CasterBounce, TheDirectFitsJoinTheBounceModelsPool) {
+  shadowsg::testing::TempDir tmp;
+  const fs::path direct = SynthScene(tmp, "direct", TwoCasterSpec(0));
+  const auto [model, targets] = ModelWithBounce(direct);
+  SgSolverOptions o = SgSolverOptions::Budget("balanced");
+  ASSERT_TRUE(o.pool_across_models);
+  o.fit_pixels = 600;
+  o.holdout_pixels = 300;
+  o.seed = 2;
+  SgSolverSummary across, apart;
+  SolveSg(model, targets, o, &across);
+  o.pool_across_models = false;
+  SolveSg(model, targets, o, &apart);
+  std::printf("held-out without / with the bounce %s; direct fits pooled %d\n",
+              Json(across.bounce_heldout_mse).dump().c_str(), across.pooled_direct_fits);
+  ASSERT_EQ(across.bounce_race_entries, (std::vector<int>{1, 3}));
+  EXPECT_EQ(across.pooled_direct_fits, 1);  // the first restart's direct fit
+  EXPECT_EQ(apart.pooled_direct_fits, 0);
+  // The race and every restart's fit are the same; only the pool differs.
+  EXPECT_EQ(across.bounce_heldout_mse, apart.bounce_heldout_mse);
+  EXPECT_EQ(across.bounce_race_entries, apart.bounce_race_entries);
+}
+
 }  // namespace
 }  // namespace shadowsg
