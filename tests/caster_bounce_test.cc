@@ -253,6 +253,15 @@ std::pair<ShadowPlaneModel, std::vector<Eigen::Vector3f>> ModelWithBounce(const 
   return {std::move(model), std::move(targets)};
 }
 
+// `balanced` on few pixels, seed 2: the restarts' tests below.
+SgSolverOptions SmallBalanced() {
+  SgSolverOptions o = SgSolverOptions::Budget("balanced");
+  o.fit_pixels = 600;
+  o.holdout_pixels = 300;
+  o.seed = 2;
+  return o;
+}
+
 // Restarts on a scene whose image has the bounce: the model without it
 // loses the first restart's race clearly and is not fitted again; the
 // winner's fits are those of racing every restart.
@@ -260,12 +269,9 @@ TEST(CasterBounce, AClearLoserOfTheFirstRaceIsNotFittedAgain) {
   shadowsg::testing::TempDir tmp;
   const fs::path bounced = SynthScene(tmp, "bounced", TwoCasterSpec(2));
   const auto [model, targets] = ModelWithBounce(bounced);
-  SgSolverOptions o = SgSolverOptions::Budget("balanced");
+  SgSolverOptions o = SmallBalanced();
   ASSERT_EQ(o.restarts, 3);
   ASSERT_TRUE(o.bounce_race_once);
-  o.fit_pixels = 600;
-  o.holdout_pixels = 300;
-  o.seed = 2;
   SgSolverSummary once;
   SolveSg(model, targets, o, &once);
   ASSERT_EQ(once.bounce_race_entries.size(), 2u);
@@ -296,20 +302,14 @@ TEST(CasterBounce, CarriedFitsLeaveTheFirstRaceToDecideTheLaterRestarts) {
   shadowsg::testing::TempDir tmp;
   const fs::path direct = SynthScene(tmp, "direct", TwoCasterSpec(0));
   const auto [model, targets] = ModelWithBounce(direct);
-  SgSolverOptions o = SgSolverOptions::Budget("balanced");
+  SgSolverOptions o = SmallBalanced();
   ASSERT_TRUE(o.later_restarts_bounce);
   SgSolverSummary later;
-  o.fit_pixels = 600;
-  o.holdout_pixels = 300;
-  o.seed = 2;
   SolveSg(model, targets, o, &later);
   EXPECT_EQ(later.bounce_race_entries, (std::vector<int>{1, 3}));
   ASSERT_EQ(later.bounce_heldout_mse.size(), 2u);
   EXPECT_TRUE(std::isfinite(later.bounce_heldout_mse[0]));  // the direct model's first fit is judged
   o.later_restarts_bounce = false;
-  o.fit_pixels = 600;
-  o.holdout_pixels = 300;
-  o.seed = 2;
   SgSolverSummary carried, plain;
   const SgLighting with = SolveSg(model, targets, o, &carried);
   o.carry_direct_into_bounce = false;
@@ -339,11 +339,8 @@ TEST(CasterBounce, TheDirectFitsJoinTheBounceModelsPool) {
   shadowsg::testing::TempDir tmp;
   const fs::path direct = SynthScene(tmp, "direct", TwoCasterSpec(0));
   const auto [model, targets] = ModelWithBounce(direct);
-  SgSolverOptions o = SgSolverOptions::Budget("balanced");
+  SgSolverOptions o = SmallBalanced();
   ASSERT_TRUE(o.pool_across_models);
-  o.fit_pixels = 600;
-  o.holdout_pixels = 300;
-  o.seed = 2;
   SgSolverSummary across, apart;
   SolveSg(model, targets, o, &across);
   o.pool_across_models = false;
