@@ -1155,6 +1155,8 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   // takes its place where its held-out error is lower: no judging set is
   // built for it (0.2 s on pub_torus_sunrise, fast).
   std::vector<char> pooled(nv, 0);
+  // The direct model's finished fits before its own pool joins them.
+  const size_t direct_fits = fits[0].size();
   int pooled_direct = 0;
   if (o.pool_restarts)
     for (size_t v = 0; v < nv; ++v) {
@@ -1168,9 +1170,8 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
       // several restarts holds nothing new.
       std::vector<FitResult> members = fits[v];
       if (o.pool_across_models && has_bounce(v) && nv == 2) {
-        const size_t direct = fits[0].size() - (pooled[0] && fits[0].size() > 1 ? 1 : 0);
-        members.insert(members.end(), fits[0].begin(), fits[0].begin() + static_cast<long>(direct));
-        pooled_direct = static_cast<int>(direct);
+        members.insert(members.end(), fits[0].begin(), fits[0].begin() + static_cast<long>(direct_fits));
+        pooled_direct = static_cast<int>(direct_fits);
       }
       FitResult pool = PoolFits(sets, has_bounce(v), members, hold_for(v), hold_targets, o);
       pool.sum.select_seconds = Since(t0);
