@@ -496,22 +496,32 @@ struct StackEntry {
   size_t node;  // local index in the tree
 };
 
+constexpr size_t kNoneLeaf = std::numeric_limits<size_t>::max();
+
 // Best-first depth-first branch-and-bound over one tree; updates *best and
-// *best_leaf (leaf index), and lowers *floor to a lower bound on the theta
-// of every leaf the search did not beat *best with (pruned subtrees' bounds,
-// leaves' own values). The stack holds at most B entries per level.
+// *best_leaf (leaf index, kNoneLeaf: none yet), lowers *floor to a lower
+// bound on the theta of every leaf other than *best_leaf that the search did
+// not beat *best with (pruned subtrees' bounds, leaves' own values), and
+// *displaced to the lowest value of a leaf that was *best_leaf and lost it:
+// min(floor, displaced) bounds every leaf but the final one. The stack holds
+// at most B entries per level.
 void ExactTreeF(const SearchPoint& sp, const FlatTree& tr, float mx, float my, float mz,
-                std::vector<StackEntry>* stack, float* best_out, size_t* best_leaf_out, float* floor_out) {
+                std::vector<StackEntry>* stack, float* best_out, size_t* best_leaf_out, float* floor_out,
+                float* displaced_out) {
   if (tr.levels == 1) {
     const float v = sp.Leaf(tr.leaves, mx, my, mz);
-    if (v < *best_out) *best_out = v, *best_leaf_out = tr.leaves;
-    else *floor_out = std::min(*floor_out, v);
+    if (v < *best_out) {
+      if (*best_leaf_out != kNoneLeaf) *displaced_out = std::min(*displaced_out, *best_out);
+      *best_out = v, *best_leaf_out = tr.leaves;
+    } else if (tr.leaves != *best_leaf_out) {
+      *floor_out = std::min(*floor_out, v);
+    }
     return;
   }
   // Locals, written back once: through the pointers every update of the
   // floor was a store the next iteration had to load (measured: the search's
   // hottest instructions).
-  float best = *best_out, floor = *floor_out;
+  float best = *best_out, floor = *floor_out, displaced = *displaced_out;
   size_t best_leaf = *best_leaf_out;
   const int B = tr.branching;
   const int leaf_parent_level = tr.levels - 2;
@@ -534,8 +544,12 @@ void ExactTreeF(const SearchPoint& sp, const FlatTree& tr, float mx, float my, f
       const size_t leaf = tr.Leaf(first);
       sp.Leaves(leaf, B, mx, my, mz, vals.data());
       for (int k = 0; k < B; ++k) {
-        if (vals[k] < best) best = vals[k], best_leaf = leaf + k;
-        else floor = std::min(floor, vals[k]);
+        if (vals[k] < best) {
+          if (best_leaf != kNoneLeaf) displaced = std::min(displaced, best);
+          best = vals[k], best_leaf = leaf + k;
+        } else if (leaf + k != best_leaf) {
+          floor = std::min(floor, vals[k]);
+        }
       }
       continue;
     }
@@ -562,6 +576,7 @@ void ExactTreeF(const SearchPoint& sp, const FlatTree& tr, float mx, float my, f
   *best_out = best;
   *best_leaf_out = best_leaf;
   *floor_out = floor;
+  *displaced_out = displaced;
 }
 
 // kCoarseToFine on one tree; *argmin gets the leaf index of the result when it
@@ -711,8 +726,8 @@ namespace {
 void PointAngles(const SearchPoint& sp, const std::vector<Eigen::Vector3f>& unit, const std::vector<int>& order,
                  SsdfSearch search, const std::vector<float>* caps, std::vector<StackEntry>* stack, float* out_row,
                  long out_stride, Eigen::Vector3f* witness_row, uint32_t* hint_leaf = nullptr,
-                 float* hint_floor = nullptr, const float* drift = nullptr) {
-  constexpr size_t kNone = std::numeric_limits<size_t>::max();
+                 float* hint_floor = nullptr, float* hint_rival = nullptr, const float* drift = nullptr) {
+  constexpr size_t kNone = kNoneLeaf;
   const FlatTrees& flat = sp.flat;
   size_t warm = flat.trees[0].leaves;  // leaf indices from here on
   for (int a : order) {
@@ -733,6 +748,21 @@ void PointAngles(const SearchPoint& sp, const std::vector<Eigen::Vector3f>& unit
           hint_floor[a] = floor;
           continue;
         }
+        // Every other leaf's theta moved by at most the drift too: where the
+        // hinted leaf's stays below all of theirs, it is still the minimum.
+        const uint32_t leaf = hint_leaf[a];
+        if (leaf != OccluderCones::kNoLeaf && leaf < flat.leaves.count) {
+          const float rival = hint_rival[a] - drift[a];
+          const float v = sp.Leaf(leaf, mx, my, mz);
+          if (v < best && v + kHintMargin <= rival) {
+            out_row[a * out_stride] = v;
+            if (witness_row) witness_row[a] = sp.Direction(leaf);
+            hint_floor[a] = v;
+            hint_rival[a] = rival;
+            warm = leaf;
+            continue;
+          }
+        }
       }
       // Start from the cap (no leaf above it matters), the previous axis's
       // best leaf or the caller's hint, whichever is lowest: each prunes the
@@ -744,12 +774,13 @@ void PointAngles(const SearchPoint& sp, const std::vector<Eigen::Vector3f>& unit
         const float hint_value = sp.Leaf(hint_leaf[a], mx, my, mz);
         if (hint_value < best) best = hint_value, argmin = hint_leaf[a];
       }
-      float floor = kInfF;
-      for (const FlatTree& tr : flat.trees) ExactTreeF(sp, tr, mx, my, mz, stack, &best, &argmin, &floor);
+      float floor = kInfF, displaced = kInfF;
+      for (const FlatTree& tr : flat.trees) ExactTreeF(sp, tr, mx, my, mz, stack, &best, &argmin, &floor, &displaced);
       if (argmin != kNone) warm = argmin;
       if (hint_leaf) {
         hint_leaf[a] = argmin == kNone ? OccluderCones::kNoLeaf : static_cast<uint32_t>(argmin);
         hint_floor[a] = argmin == kNone ? floor : best;
+        hint_rival[a] = argmin == kNone ? -kInfF : std::min(floor, displaced);
       }
     } else {
       best = kInfF;
@@ -870,10 +901,12 @@ void OccluderCones::Search(const std::vector<Eigen::Vector3d>& axes, size_t begi
   // Hints made for another number of axes or points, or for the coarse-to-fine
   // search, say nothing about this call: start afresh.
   if (hints && (hints->axes.size() != axes.size() || hints->leaf.size() != size() * axes.size() ||
-                hints->floor.size() != hints->leaf.size() || impl_->search != SsdfSearch::kExact)) {
+                hints->floor.size() != hints->leaf.size() || hints->rival.size() != hints->leaf.size() ||
+                impl_->search != SsdfSearch::kExact)) {
     hints->axes.clear();
     hints->leaf.assign(size() * axes.size(), kNoLeaf);
     hints->floor.assign(size() * axes.size(), -kInfF);
+    hints->rival.assign(size() * axes.size(), -kInfF);
   }
   std::vector<float> drift(axes.size(), 0.0f);
   for (size_t a = 0; hints && a < hints->axes.size(); ++a)
@@ -901,7 +934,8 @@ void OccluderCones::Search(const std::vector<Eigen::Vector3d>& axes, size_t begi
       if (q + 1 < np) PrefetchTable(impl_->tables[p + 1]);
       PointAngles({impl_->flat, impl_->tables[p], impl_->points[p].data()}, unit, order, impl_->search, caps, &stack,
                   &(*out)(q, 0), out->rows(), witness ? &(*witness)[at] : nullptr,
-                  hints ? &hints->leaf[at] : nullptr, hints ? &hints->floor[at] : nullptr, drift.data());
+                  hints ? &hints->leaf[at] : nullptr, hints ? &hints->floor[at] : nullptr,
+                  hints ? &hints->rival[at] : nullptr, drift.data());
     }
   }
   if (hints) hints->axes = axes;
@@ -913,24 +947,30 @@ OccluderCones::AngleHints JoinHints(const std::vector<OccluderCones::AngleHints*
   joined.axes.assign(na, Eigen::Vector3d::UnitZ());  // no floor to lower for a fresh column: any axis
   joined.leaf.assign(points * na, OccluderCones::kNoLeaf);
   joined.floor.assign(points * na, -kInfF);
+  joined.rival.assign(points * na, -kInfF);
   std::vector<char> has(na, 0);
   for (size_t a = 0; a < na; ++a) {
     const OccluderCones::AngleHints* h = one_axis[a];
-    has[a] = h && h->axes.size() == 1 && h->leaf.size() == points && h->floor.size() == points;
+    has[a] = h && h->axes.size() == 1 && h->leaf.size() == points && h->floor.size() == points &&
+             h->rival.size() == points;
     if (has[a]) joined.axes[a] = h->axes[0];
   }
   // Points x axes, copied a block of points per thread (a transpose).
 #pragma omp parallel for schedule(static) if (points * na > 16384)
   for (long p = 0; p < static_cast<long>(points); ++p)
     for (size_t a = 0; a < na; ++a)
-      if (has[a]) joined.leaf[p * na + a] = one_axis[a]->leaf[p], joined.floor[p * na + a] = one_axis[a]->floor[p];
+      if (has[a]) {
+        joined.leaf[p * na + a] = one_axis[a]->leaf[p];
+        joined.floor[p * na + a] = one_axis[a]->floor[p];
+        joined.rival[p * na + a] = one_axis[a]->rival[p];
+      }
   return joined;
 }
 
 void SplitHints(const OccluderCones::AngleHints& joined, const std::vector<OccluderCones::AngleHints*>& one_axis) {
   const size_t na = one_axis.size();
   const bool learnt = joined.axes.size() == na && na > 0 && joined.leaf.size() % na == 0 &&
-                      joined.floor.size() == joined.leaf.size();
+                      joined.floor.size() == joined.leaf.size() && joined.rival.size() == joined.leaf.size();
   const size_t points = learnt ? joined.leaf.size() / na : 0;
   for (size_t a = 0; a < na; ++a) {
     OccluderCones::AngleHints& h = *one_axis[a];
@@ -939,12 +979,14 @@ void SplitHints(const OccluderCones::AngleHints& joined, const std::vector<Occlu
     h.axes = {joined.axes[a]};
     h.leaf.resize(points);
     h.floor.resize(points);
+    h.rival.resize(points);
   }
   if (!learnt) return;
 #pragma omp parallel for schedule(static) if (points * na > 16384)
   for (long p = 0; p < static_cast<long>(points); ++p)
     for (size_t a = 0; a < na; ++a)
-      one_axis[a]->leaf[p] = joined.leaf[p * na + a], one_axis[a]->floor[p] = joined.floor[p * na + a];
+      one_axis[a]->leaf[p] = joined.leaf[p * na + a], one_axis[a]->floor[p] = joined.floor[p * na + a],
+      one_axis[a]->rival[p] = joined.rival[p * na + a];
 }
 
 }  // namespace shadowsg

@@ -86,13 +86,17 @@ class OccluderCones {
   // What a search learnt, kept between calls over the same points by a
   // solver whose axes move a little per iteration (kExact only): per (point,
   // axis), [p * axes.size() + a], the leaf that attained the minimum
-  // (kNoLeaf: none below the cap) and a lower bound on theta (theta itself
-  // when a leaf was found), both for `axes`.
+  // (kNoLeaf: none below the cap), a lower bound on theta (theta itself
+  // when a leaf was found), and where a leaf was found a lower bound on the
+  // theta of every other leaf (rival), all for `axes`. While the leaf's theta
+  // stays below its rival less the axis's drift, it is still the minimum and
+  // the search is skipped.
   static constexpr uint32_t kNoLeaf = 0xffffffffu;
   struct AngleHints {
     std::vector<Eigen::Vector3d> axes;  // empty: no hints yet (filled in)
     std::vector<uint32_t> leaf;
     std::vector<float> floor;
+    std::vector<float> rival;
   };
 
   // As SignedAnglesWithWitness for the prepared points (witness may be null).

@@ -5,6 +5,7 @@
 #include "solver/primitives.h"
 #include "solver/sphere_tree_build.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -218,6 +219,60 @@ TEST(Ssdf, HintsGiveTheSameAnglesAsAFreshSearch) {
   EXPECT_LE(witness_differs, pairs / 200);
 }
 
+// Where a leaf attains theta, the hints' rival bounds every other leaf's
+// theta from below; with an LM-sized turn it holds on through the next call
+// on many points (those skip the search), and the hinted angles stay those of
+// a fresh search.
+TEST(Ssdf, HintsRivalBoundsTheOtherLeaves) {
+  const auto trees = TestTrees(31);
+  std::mt19937_64 rng(14);
+  const auto points = TestPoints(rng, 300);
+  const OccluderCones cones(trees, points);
+  std::vector<Eigen::Vector3d> axes = {Eigen::Vector3d(0.3, 0.1, 1).normalized(),
+                                       Eigen::Vector3d(-0.5, 0.4, 0.8).normalized()};
+  const std::vector<float> caps = {0.3f, 0.3f};
+  // Each leaf as a tree of its own: the brute force's theta of that leaf.
+  std::vector<SphereTree> leaves;
+  for (const SphereTree& t : trees)
+    for (size_t i = t.LevelBegin(t.levels - 1); i < t.nodes.size(); ++i) {
+      if (t.nodes[i].empty()) continue;
+      SphereTree one;
+      one.levels = 1;
+      one.branching = t.branching;
+      one.nodes = {t.nodes[i]};
+      leaves.push_back(one);
+    }
+  OccluderCones::AngleHints hints;
+  const Eigen::AngleAxisd turn(0.003, Eigen::Vector3d(1, 2, 0.5).normalized());
+  long found = 0, held = 0;
+  for (int step = 0; step < 4; ++step) {
+    const OccluderCones::AngleHints last = hints;
+    Eigen::MatrixXf fresh, hinted;
+    cones.Angles(axes, &fresh, nullptr, &caps);
+    cones.Angles(axes, &hinted, nullptr, &caps, &hints);
+    ASSERT_EQ(hints.rival.size(), hints.leaf.size());
+    for (size_t p = 0; p < points.size(); ++p)
+      for (size_t a = 0; a < axes.size(); ++a) {
+        const size_t i = p * axes.size() + a;
+        ASSERT_NEAR(hinted(p, a), fresh(p, a), 1e-5) << "step " << step << " point " << p << " axis " << a;
+        if (hints.leaf[i] == OccluderCones::kNoLeaf) continue;
+        ++found;
+        // The second lowest leaf: the argmin is the lowest (up to ties).
+        std::vector<double> theta;
+        for (const SphereTree& one : leaves) theta.push_back(SignedAngleBruteForce({one}, points[p], axes[a]));
+        std::nth_element(theta.begin(), theta.begin() + 1, theta.end());
+        EXPECT_LE(hints.rival[i], theta[1] + 1e-5) << "step " << step << " point " << p << " axis " << a;
+        EXPECT_GE(hints.rival[i], hints.floor[i] - 1e-5);
+        // Kept through the turn: the same leaf, its rival lowered by the drift.
+        held += step > 0 && last.leaf[i] == hints.leaf[i] && hints.rival[i] < last.rival[i] &&
+                hints.rival[i] > last.rival[i] - 0.0031f;
+      }
+    for (auto& a : axes) a = turn * a;
+  }
+  EXPECT_GT(found, 200);
+  EXPECT_GT(held, found / 10);
+}
+
 // A range of the prepared points gives those rows of the whole call.
 TEST(Ssdf, AnglesOfARangeAreThoseRows) {
   const auto trees = TestTrees(23);
@@ -292,6 +347,7 @@ TEST(Ssdf, JoinedHintsArePointMajorAndSplitBackUnchanged) {
     for (size_t p = 0; p < points; ++p) {
       one[a].leaf.push_back(static_cast<uint32_t>(7 * p + a));
       one[a].floor.push_back(0.001f * static_cast<float>(p) - static_cast<float>(a));
+      one[a].rival.push_back(0.002f * static_cast<float>(p) + static_cast<float>(a));
     }
   }
   std::vector<OccluderCones::AngleHints*> ptrs = {&one[0], &one[1], &one[2]};
@@ -301,11 +357,13 @@ TEST(Ssdf, JoinedHintsArePointMajorAndSplitBackUnchanged) {
     EXPECT_EQ(joined.leaf[p * 3 + 0], one[0].leaf[p]);
     EXPECT_EQ(joined.leaf[p * 3 + 1], OccluderCones::kNoLeaf);
     EXPECT_EQ(joined.floor[p * 3 + 2], one[2].floor[p]);
+    EXPECT_EQ(joined.rival[p * 3 + 2], one[2].rival[p]);
   }
   const std::vector<OccluderCones::AngleHints> before = one;
   SplitHints(joined, ptrs);
   EXPECT_EQ(one[0].leaf, before[0].leaf);
   EXPECT_EQ(one[2].floor, before[2].floor);
+  EXPECT_EQ(one[2].rival, before[2].rival);
   ASSERT_EQ(one[1].leaf.size(), points);  // the fresh column comes back as one
   EXPECT_EQ(one[1].leaf[points - 1], OccluderCones::kNoLeaf);
 }
