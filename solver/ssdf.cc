@@ -483,9 +483,12 @@ struct SearchPoint {
   float Leaf(size_t i, float mx, float my, float mz) const {
     return leaf_table ? ConeTheta(*leaf_table, i, mx, my, mz) : LeafTheta(flat.leaves, i, x, mx, my, mz);
   }
+  Cone LeafCone(size_t i) const {
+    if (leaf_table) return {leaf_table->ux(i), leaf_table->uy(i), leaf_table->uz(i), leaf_table->alpha(i)};
+    return LeafConeAt(flat.leaves, i, x);
+  }
   Eigen::Vector3f Direction(size_t leaf) const {
-    if (leaf_table) return Eigen::Vector3f(leaf_table->ux(leaf), leaf_table->uy(leaf), leaf_table->uz(leaf));
-    const Cone c = LeafConeAt(flat.leaves, leaf, x);
+    const Cone c = LeafCone(leaf);
     return Eigen::Vector3f(c.ux, c.uy, c.uz);
   }
 };
@@ -734,8 +737,14 @@ void PointAngles(const SearchPoint& sp, const std::vector<Eigen::Vector3f>& unit
     const float mx = unit[a].x(), my = unit[a].y(), mz = unit[a].z();
     float best;
     size_t argmin = warm;
+    // The hinted and the warm leaf's cones, computed once for their theta
+    // and, where one is the minimum, its direction.
+    size_t hint_cone_leaf = kNone, warm_cone_leaf = kNone;
+    Cone hint_cone{0, 0, 1, -kInfF}, warm_cone{0, 0, 1, -kInfF};
     if (search == SsdfSearch::kExact) {
       best = caps ? (*caps)[a] : kInfF;
+      const uint32_t hinted = hint_leaf && hint_leaf[a] < flat.leaves.count ? hint_leaf[a] : OccluderCones::kNoLeaf;
+      float hint_value = kInfF;
       if (hint_floor) {
         // theta moves by at most the angle its axis moved (every leaf's
         // angle does): a floor that far above the cap still proves that no
@@ -750,29 +759,31 @@ void PointAngles(const SearchPoint& sp, const std::vector<Eigen::Vector3f>& unit
         }
         // Every other leaf's theta moved by at most the drift too: where the
         // hinted leaf's stays below all of theirs, it is still the minimum.
-        const uint32_t leaf = hint_leaf[a];
-        if (leaf != OccluderCones::kNoLeaf && leaf < flat.leaves.count) {
+        if (hinted != OccluderCones::kNoLeaf) {
           const float rival = hint_rival[a] - drift[a];
-          const float v = sp.Leaf(leaf, mx, my, mz);
-          if (v < best && v + kHintMargin <= rival) {
-            out_row[a * out_stride] = v;
-            if (witness_row) witness_row[a] = sp.Direction(leaf);
-            hint_floor[a] = v;
+          hint_cone = sp.LeafCone(hinted);
+          hint_cone_leaf = hinted;
+          hint_value = ConeThetaOf(hint_cone.ux, hint_cone.uy, hint_cone.uz, hint_cone.alpha, mx, my, mz);
+          if (hint_value < best && hint_value + kHintMargin <= rival) {
+            out_row[a * out_stride] = hint_value;
+            if (witness_row) witness_row[a] = Eigen::Vector3f(hint_cone.ux, hint_cone.uy, hint_cone.uz);
+            hint_floor[a] = hint_value;
             hint_rival[a] = rival;
-            warm = leaf;
+            warm = hinted;
             continue;
           }
         }
       }
-      // Start from the cap (no leaf above it matters), the previous axis's
-      // best leaf or the caller's hint, whichever is lowest: each prunes the
+      // Start from the cap (no leaf above it matters), the caller's hint or
+      // the previous axis's best leaf, whichever is lowest: each prunes the
       // descent, and each is a real leaf's theta, so the minimum is the same.
       argmin = kNone;
-      const float warm_value = sp.Leaf(warm, mx, my, mz);
-      if (warm_value < best) best = warm_value, argmin = warm;
-      if (hint_leaf && hint_leaf[a] != OccluderCones::kNoLeaf && hint_leaf[a] < flat.leaves.count) {
-        const float hint_value = sp.Leaf(hint_leaf[a], mx, my, mz);
-        if (hint_value < best) best = hint_value, argmin = hint_leaf[a];
+      if (hinted != OccluderCones::kNoLeaf && hint_value < best) best = hint_value, argmin = hinted;
+      if (warm != hinted) {
+        warm_cone = sp.LeafCone(warm);
+        warm_cone_leaf = warm;
+        const float warm_value = ConeThetaOf(warm_cone.ux, warm_cone.uy, warm_cone.uz, warm_cone.alpha, mx, my, mz);
+        if (warm_value < best) best = warm_value, argmin = warm;
       }
       float floor = kInfF, displaced = kInfF;
       for (const FlatTree& tr : flat.trees) ExactTreeF(sp, tr, mx, my, mz, stack, &best, &argmin, &floor, &displaced);
@@ -793,7 +804,12 @@ void PointAngles(const SearchPoint& sp, const std::vector<Eigen::Vector3f>& unit
     out_row[a * out_stride] = best;
     if (witness_row) {
       witness_row[a] = Eigen::Vector3f::Zero();
-      if (argmin != kNone) witness_row[a] = sp.Direction(argmin);
+      if (argmin != kNone && argmin == hint_cone_leaf)
+        witness_row[a] = Eigen::Vector3f(hint_cone.ux, hint_cone.uy, hint_cone.uz);
+      else if (argmin != kNone && argmin == warm_cone_leaf)
+        witness_row[a] = Eigen::Vector3f(warm_cone.ux, warm_cone.uy, warm_cone.uz);
+      else if (argmin != kNone)
+        witness_row[a] = sp.Direction(argmin);
     }
   }
 }
