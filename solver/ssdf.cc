@@ -393,6 +393,9 @@ inline float ConeThetaOf(float ux, float uy, float uz, float alpha, float mx, fl
   const float a = 2 * AsinUnit(h, 0.5f * (1 - h));
   return (dot >= 0 ? a : kPiF - a) - alpha;
 }
+inline float ConeThetaOf(const Cone& c, float mx, float my, float mz) {
+  return ConeThetaOf(c.ux, c.uy, c.uz, c.alpha, mx, my, mz);
+}
 
 // theta of table nodes [begin, begin + n) for the unit axis m.
 template <int kFixed>
@@ -428,7 +431,7 @@ inline void LeafThetasN(const LeafSpheres& l, size_t begin, int n_runtime, const
 #pragma omp simd
   for (int j = 0; j < n; ++j) {
     const Cone c = LeafCone(block, lane0 + j, px, py, pz);
-    out[j] = ConeThetaOf(c.ux, c.uy, c.uz, c.alpha, mx, my, mz);
+    out[j] = ConeThetaOf(c, mx, my, mz);
   }
 }
 
@@ -461,8 +464,7 @@ inline float ConeTheta(const ConeTable& t, size_t i, float mx, float my, float m
 }
 
 inline float LeafTheta(const LeafSpheres& l, size_t i, const double* x, float mx, float my, float mz) {
-  const Cone c = LeafConeAt(l, i, x);
-  return ConeThetaOf(c.ux, c.uy, c.uz, c.alpha, mx, my, mz);
+  return ConeThetaOf(LeafConeAt(l, i, x), mx, my, mz);
 }
 
 // What one point's searches read: the trees, the point's table of inner
@@ -487,10 +489,6 @@ struct SearchPoint {
     if (leaf_table) return {leaf_table->ux(i), leaf_table->uy(i), leaf_table->uz(i), leaf_table->alpha(i)};
     return LeafConeAt(flat.leaves, i, x);
   }
-  Eigen::Vector3f Direction(size_t leaf) const {
-    const Cone c = LeafCone(leaf);
-    return Eigen::Vector3f(c.ux, c.uy, c.uz);
-  }
 };
 
 struct StackEntry {
@@ -511,21 +509,30 @@ constexpr size_t kNoneLeaf = std::numeric_limits<size_t>::max();
 void ExactTreeF(const SearchPoint& sp, const FlatTree& tr, float mx, float my, float mz,
                 std::vector<StackEntry>* stack, float* best_out, size_t* best_leaf_out, float* floor_out,
                 float* displaced_out) {
-  if (tr.levels == 1) {
-    const float v = sp.Leaf(tr.leaves, mx, my, mz);
-    if (v < *best_out) {
-      if (*best_leaf_out != kNoneLeaf) *displaced_out = std::min(*displaced_out, *best_out);
-      *best_out = v, *best_leaf_out = tr.leaves;
-    } else if (tr.leaves != *best_leaf_out) {
-      *floor_out = std::min(*floor_out, v);
-    }
-    return;
-  }
   // Locals, written back once: through the pointers every update of the
   // floor was a store the next iteration had to load (measured: the search's
   // hottest instructions).
   float best = *best_out, floor = *floor_out, displaced = *displaced_out;
   size_t best_leaf = *best_leaf_out;
+  auto offer = [&](float v, size_t leaf) {
+    if (v < best) {
+      if (best_leaf != kNoneLeaf) displaced = std::min(displaced, best);
+      best = v, best_leaf = leaf;
+    } else if (leaf != best_leaf) {
+      floor = std::min(floor, v);
+    }
+  };
+  auto store = [&] {
+    *best_out = best;
+    *best_leaf_out = best_leaf;
+    *floor_out = floor;
+    *displaced_out = displaced;
+  };
+  if (tr.levels == 1) {
+    offer(sp.Leaf(tr.leaves, mx, my, mz), tr.leaves);
+    store();
+    return;
+  }
   const int B = tr.branching;
   const int leaf_parent_level = tr.levels - 2;
   if (stack->size() < static_cast<size_t>(B * tr.levels)) stack->resize(B * tr.levels);
@@ -546,14 +553,7 @@ void ExactTreeF(const SearchPoint& sp, const FlatTree& tr, float mx, float my, f
     if (e.level == leaf_parent_level) {
       const size_t leaf = tr.Leaf(first);
       sp.Leaves(leaf, B, mx, my, mz, vals.data());
-      for (int k = 0; k < B; ++k) {
-        if (vals[k] < best) {
-          if (best_leaf != kNoneLeaf) displaced = std::min(displaced, best);
-          best = vals[k], best_leaf = leaf + k;
-        } else if (leaf + k != best_leaf) {
-          floor = std::min(floor, vals[k]);
-        }
-      }
+      for (int k = 0; k < B; ++k) offer(vals[k], leaf + k);
       continue;
     }
     ConeThetas(sp.table, tr.Inner(first), B, mx, my, mz, vals.data());
@@ -576,10 +576,7 @@ void ExactTreeF(const SearchPoint& sp, const FlatTree& tr, float mx, float my, f
     }
     for (int k = 0; k < m; ++k) st[top++] = {vals[order[k]], e.level + 1, first + order[k]};
   }
-  *best_out = best;
-  *best_leaf_out = best_leaf;
-  *floor_out = floor;
-  *displaced_out = displaced;
+  store();
 }
 
 // kCoarseToFine on one tree; *argmin gets the leaf index of the result when it
@@ -730,7 +727,6 @@ void PointAngles(const SearchPoint& sp, const std::vector<Eigen::Vector3f>& unit
                  SsdfSearch search, const std::vector<float>* caps, std::vector<StackEntry>* stack, float* out_row,
                  long out_stride, Eigen::Vector3f* witness_row, uint32_t* hint_leaf = nullptr,
                  float* hint_floor = nullptr, float* hint_rival = nullptr, const float* drift = nullptr) {
-  constexpr size_t kNone = kNoneLeaf;
   const FlatTrees& flat = sp.flat;
   size_t warm = flat.trees[0].leaves;  // leaf indices from here on
   for (int a : order) {
@@ -739,7 +735,7 @@ void PointAngles(const SearchPoint& sp, const std::vector<Eigen::Vector3f>& unit
     size_t argmin = warm;
     // The hinted and the warm leaf's cones, computed once for their theta
     // and, where one is the minimum, its direction.
-    size_t hint_cone_leaf = kNone, warm_cone_leaf = kNone;
+    size_t hint_cone_leaf = kNoneLeaf, warm_cone_leaf = kNoneLeaf;
     Cone hint_cone{0, 0, 1, -kInfF}, warm_cone{0, 0, 1, -kInfF};
     if (search == SsdfSearch::kExact) {
       best = caps ? (*caps)[a] : kInfF;
@@ -763,7 +759,7 @@ void PointAngles(const SearchPoint& sp, const std::vector<Eigen::Vector3f>& unit
           const float rival = hint_rival[a] - drift[a];
           hint_cone = sp.LeafCone(hinted);
           hint_cone_leaf = hinted;
-          hint_value = ConeThetaOf(hint_cone.ux, hint_cone.uy, hint_cone.uz, hint_cone.alpha, mx, my, mz);
+          hint_value = ConeThetaOf(hint_cone, mx, my, mz);
           if (hint_value < best && hint_value + kHintMargin <= rival) {
             out_row[a * out_stride] = hint_value;
             if (witness_row) witness_row[a] = Eigen::Vector3f(hint_cone.ux, hint_cone.uy, hint_cone.uz);
@@ -777,21 +773,21 @@ void PointAngles(const SearchPoint& sp, const std::vector<Eigen::Vector3f>& unit
       // Start from the cap (no leaf above it matters), the caller's hint or
       // the previous axis's best leaf, whichever is lowest: each prunes the
       // descent, and each is a real leaf's theta, so the minimum is the same.
-      argmin = kNone;
+      argmin = kNoneLeaf;
       if (hinted != OccluderCones::kNoLeaf && hint_value < best) best = hint_value, argmin = hinted;
       if (warm != hinted) {
         warm_cone = sp.LeafCone(warm);
         warm_cone_leaf = warm;
-        const float warm_value = ConeThetaOf(warm_cone.ux, warm_cone.uy, warm_cone.uz, warm_cone.alpha, mx, my, mz);
+        const float warm_value = ConeThetaOf(warm_cone, mx, my, mz);
         if (warm_value < best) best = warm_value, argmin = warm;
       }
       float floor = kInfF, displaced = kInfF;
       for (const FlatTree& tr : flat.trees) ExactTreeF(sp, tr, mx, my, mz, stack, &best, &argmin, &floor, &displaced);
-      if (argmin != kNone) warm = argmin;
+      if (argmin != kNoneLeaf) warm = argmin;
       if (hint_leaf) {
-        hint_leaf[a] = argmin == kNone ? OccluderCones::kNoLeaf : static_cast<uint32_t>(argmin);
-        hint_floor[a] = argmin == kNone ? floor : best;
-        hint_rival[a] = argmin == kNone ? -kInfF : std::min(floor, displaced);
+        hint_leaf[a] = argmin == kNoneLeaf ? OccluderCones::kNoLeaf : static_cast<uint32_t>(argmin);
+        hint_floor[a] = argmin == kNoneLeaf ? floor : best;
+        hint_rival[a] = argmin == kNoneLeaf ? -kInfF : std::min(floor, displaced);
       }
     } else {
       best = kInfF;
@@ -804,12 +800,10 @@ void PointAngles(const SearchPoint& sp, const std::vector<Eigen::Vector3f>& unit
     out_row[a * out_stride] = best;
     if (witness_row) {
       witness_row[a] = Eigen::Vector3f::Zero();
-      if (argmin != kNone && argmin == hint_cone_leaf)
-        witness_row[a] = Eigen::Vector3f(hint_cone.ux, hint_cone.uy, hint_cone.uz);
-      else if (argmin != kNone && argmin == warm_cone_leaf)
-        witness_row[a] = Eigen::Vector3f(warm_cone.ux, warm_cone.uy, warm_cone.uz);
-      else if (argmin != kNone)
-        witness_row[a] = sp.Direction(argmin);
+      if (argmin != kNoneLeaf) {
+        const Cone c = argmin == hint_cone_leaf ? hint_cone : argmin == warm_cone_leaf ? warm_cone : sp.LeafCone(argmin);
+        witness_row[a] = Eigen::Vector3f(c.ux, c.uy, c.uz);
+      }
     }
   }
 }
