@@ -16,8 +16,12 @@ constexpr std::array<double, 8> kWeights = {0.1894506104550685, 0.18260341504492
                                             0.1495959888165767, 0.1246289712555339, 0.0951585116824928,
                                             0.0622535239386479, 0.0271524594117541};
 
-// Geometric refinement levels towards segment ends (see Value).
+// Geometric refinement levels towards segment ends (see ValueQuadrature),
+// and towards each end of the band between the kinks (ValueSplit: 6 gave
+// 2e-7 of the lobe's power against a fine quadrature in x split at the
+// kinks, lambda 0.5-5000; 4 gave 1.8e-6).
 constexpr int kGradedLevels = 24;
+constexpr int kBandLevels = 6;
 
 // Integral over the azimuth around mu of max(A + B cos(phi), 0), B >= 0.
 double AzimuthIntegral(double A, double B) {
@@ -26,9 +30,53 @@ double AzimuthIntegral(double A, double B) {
   return 2 * (A * phi0 + std::sqrt(std::max(0.0, B * B - A * A)));
 }
 
+// The integral over u in [a, b] of the integrand below, by 16-point
+// Gauss-Legendre on pieces graded geometrically towards b.
+template <typename F>
+double GradedGauss(double a, double b, const F& f) {
+  double sum = 0;
+  auto gauss = [&](double lo, double hi) {
+    const double mid = 0.5 * (lo + hi), half = 0.5 * (hi - lo);
+    for (size_t k = 0; k < kNodes.size(); ++k)
+      for (double sign : {-1.0, 1.0}) sum += kWeights[k] * half * f(mid + sign * half * kNodes[k]);
+  };
+  double lo = a;
+  for (int level = 1; level <= kGradedLevels; ++level) {
+    const double hi = b - (b - a) * std::ldexp(1.0, -level);
+    gauss(lo, hi);
+    lo = hi;
+  }
+  gauss(lo, b);
+  return sum;
+}
+
+// The same rule graded towards both ends (levels each way from the middle):
+// the band's integrand has a square-root kink at both.
+template <typename F>
+double GradedGaussBothEnds(double a, double b, int levels, const F& f) {
+  double sum = 0;
+  auto gauss = [&](double lo, double hi) {
+    const double mid = 0.5 * (lo + hi), half = 0.5 * (hi - lo);
+    for (size_t k = 0; k < kNodes.size(); ++k)
+      for (double sign : {-1.0, 1.0}) sum += kWeights[k] * half * f(mid + sign * half * kNodes[k]);
+  };
+  const double w = b - a;
+  for (int level = 1; level <= levels; ++level) {
+    gauss(a + w * std::ldexp(1.0, -level - 1), a + w * std::ldexp(1.0, -level));
+    gauss(b - w * std::ldexp(1.0, -level), b - w * std::ldexp(1.0, -level - 1));
+  }
+  gauss(a, a + w * std::ldexp(1.0, -levels - 1));
+  gauss(b - w * std::ldexp(1.0, -levels - 1), b);
+  return sum;
+}
+
+// Below this sharpness the closed form of the outer parts (ValueSplit)
+// cancels to ~1e-16 / lambda relative: the whole quadrature instead.
+constexpr double kClosedFormMinLambda = 0.01;
+
 // C by the substitution u in [0, 1]: exp(-lambda t) dt = (1 - e^{-2 lambda}) / lambda du
 // with t = 1 - cos(theta), split where the azimuth integrand has kinks.
-double Value(double lambda, double c) {
+double ValueQuadrature(double lambda, double c) {
   c = std::clamp(c, -1.0, 1.0);
   const double s = std::sqrt(std::max(0.0, 1 - c * c));
   const double q = -std::expm1(-2 * lambda);  // 1 - e^{-2 lambda}
@@ -43,31 +91,52 @@ double Value(double lambda, double c) {
   std::array<double, 4> cuts = {0.0, u_of_theta(std::abs(M_PI / 2 - theta_n)),
                                 theta_n < M_PI / 2 ? u_of_theta(M_PI / 2 + theta_n) : 1.0, 1.0};
   std::sort(cuts.begin(), cuts.end());
-  double sum = 0;
-  auto gauss = [&](double a, double b) {
-    const double mid = 0.5 * (a + b), half = 0.5 * (b - a);
-    for (size_t k = 0; k < kNodes.size(); ++k)
-      for (double sign : {-1.0, 1.0}) {
-        const double u = mid + sign * half * kNodes[k];
-        const double x = 1 - t_of_u(u);  // cos(theta)
-        const double sn = std::sqrt(std::max(0.0, 1 - x * x));
-        sum += kWeights[k] * half * AzimuthIntegral(c * x, s * sn);
-      }
+  auto integrand = [&](double u) {
+    const double x = 1 - t_of_u(u);  // cos(theta)
+    const double sn = std::sqrt(std::max(0.0, 1 - x * x));
+    return AzimuthIntegral(c * x, s * sn);
   };
-  for (int seg = 0; seg + 1 < 4; ++seg) {
-    const double a = cuts[seg], b = cuts[seg + 1];
-    if (b - a <= 0) continue;
-    // t(u) has a logarithmic singularity at u = 1 (theta = pi for large
-    // lambda): grade the pieces geometrically towards each segment's end.
-    double lo = a;
-    for (int level = 1; level <= kGradedLevels; ++level) {
-      const double hi = b - (b - a) * std::ldexp(1.0, -level);
-      gauss(lo, hi);
-      lo = hi;
-    }
-    gauss(lo, b);
-  }
+  double sum = 0;
+  // t(u) has a logarithmic singularity at u = 1 (theta = pi for large
+  // lambda): grade the pieces geometrically towards each segment's end.
+  for (int seg = 0; seg + 1 < 4; ++seg)
+    if (cuts[seg + 1] > cuts[seg]) sum += GradedGauss(cuts[seg], cuts[seg + 1], integrand);
   return q / lambda * sum;
+}
+
+// C split at the kinks x = cos(theta) = +-s (s = sin(theta_n)). Outside
+// [-s, s] the plane's horizon misses the ring of directions at theta: the
+// azimuth integral is 2 pi c x where c x > 0 and 0 elsewhere, so those parts
+// are integral of 2 pi c x e^{lambda (x - 1)} dx in closed form. Only the
+// band between needs the quadrature (the same graded rule, in the same u):
+// a third of ValueQuadrature's work, and for c < 0 the kink at x = -s no
+// longer falls inside a piece.
+double ValueSplit(double lambda, double c) {
+  c = std::clamp(c, -1.0, 1.0);
+  const double s = std::sqrt(std::max(0.0, 1 - c * c));
+  const double q = -std::expm1(-2 * lambda);
+  // integral over [a, b] of x e^{lambda (x - 1)} dx, from [e^{lambda (x - 1)} (x / lambda - 1 / lambda^2)].
+  auto moment = [&](double a, double b) {
+    const double ea = std::exp(lambda * (a - 1)), eb = std::exp(lambda * (b - 1));
+    return (b * eb - a * ea) / lambda + eb * std::expm1(-lambda * (b - a)) / (lambda * lambda);
+  };
+  double outer = 0;
+  if (c > 0) outer = 2 * M_PI * c * moment(s, 1.0);
+  else if (c < 0) outer = 2 * M_PI * c * moment(-1.0, -s);
+  if (!(s > 0)) return outer;
+  auto t_of_u = [&](double u) { return u * q < 1 ? std::min(2.0, -std::log1p(-u * q) / lambda) : 2.0; };
+  auto u_of_x = [&](double x) { return -std::expm1(-lambda * (1 - x)) / q; };
+  auto band = [&](double u) {
+    const double x = 1 - t_of_u(u);
+    const double sn = std::sqrt(std::max(0.0, 1 - x * x));
+    return AzimuthIntegral(c * x, s * sn);
+  };
+  const double a = u_of_x(s), b = u_of_x(-s);
+  return outer + (b > a ? q / lambda * GradedGaussBothEnds(a, b, kBandLevels, band) : 0.0);
+}
+
+double Value(double lambda, double c) {
+  return lambda < kClosedFormMinLambda ? ValueQuadrature(lambda, c) : ValueSplit(lambda, c);
 }
 
 }  // namespace
