@@ -14,6 +14,7 @@ ProductLobe EvalProductLobe(const Eigen::Vector3d& mu, double lambda, const Eige
   const Eigen::Vector3d v = lambda * mu + kCosineLobeSharpness * n;
   const double lp = v.norm();
   p.lambda_prime = lp;
+  p.exp_minus_2lp = std::exp(-2 * lp);
   const double e = std::exp(lp - lambda - kCosineLobeSharpness);
   const double em = std::exp(-lp);
   const double f = 2 * M_PI * (1 - em) / lp;                 // hemisphere integral factor
@@ -54,7 +55,14 @@ LobeShading ShadeLobe(const ProductLobe& p, double theta, const Eigen::Vector3d&
     return s;
   }
   const double dk = p.dsteepness();
-  s.sigma = z >= 0 ? 1 / (1 + std::exp(-z)) : std::exp(z) / (1 + std::exp(z));
+  // One exponential a point: glibc's exp may set errno, so the compiler
+  // does not merge two calls.
+  if (z >= 0) {
+    s.sigma = 1 / (1 + std::exp(-z));
+  } else {
+    const double ez = std::exp(z);
+    s.sigma = ez / (1 + ez);
+  }
   const double dsig_dz = s.sigma * (1 - s.sigma);
   if (occluder_cos < -1) {
     s.value = p.scale * s.sigma;
@@ -63,7 +71,7 @@ LobeShading ShadeLobe(const ProductLobe& p, double theta, const Eigen::Vector3d&
     return s;
   }
   const double lp = p.lambda_prime, h = 1 - occluder_cos;
-  const double ea = std::exp(-lp * h), e2 = std::exp(-2 * lp);
+  const double ea = std::exp(-lp * h), e2 = p.exp_minus_2lp >= 0 ? p.exp_minus_2lp : std::exp(-2 * lp);
   const double den = 1 - e2;
   const double F = (1 - ea) / den;
   const double dF = (h * ea * den - (1 - ea) * 2 * e2) / (den * den);  // dF / d lambda'

@@ -65,6 +65,9 @@ struct ProductLobe {
   Eigen::Vector3d dlambda_prime_dmu = Eigen::Vector3d::Zero();
   double dscale_dlambda = 0;
   Eigen::Vector3d dscale_dmu = Eigen::Vector3d::Zero();
+  // e^{-2 lambda'}, for ShadeLobe's occluder cap at every point (< 0: not
+  // computed, ShadeLobe takes it itself).
+  double exp_minus_2lp = -1;
   // The visibility sigmoid's steepness is min(k(lambda'), max_steepness).
   double max_steepness = kUncappedSteepness;
   double steepness() const { return std::min(VisibilitySteepness(lambda_prime), max_steepness); }

@@ -211,6 +211,29 @@ TEST(SgShading, SaturatedVisibilityJoinsTheSigmoidWithoutAStep) {
   EXPECT_EQ(checked, 9);
 }
 
+// EvalProductLobe keeps e^{-2 lambda'} for the occluder cap; a ProductLobe
+// filled in by hand (exp_minus_2lp unset) shades the same, in and out of
+// shadow (theta < 0 and > 0 take the sigmoid's two branches).
+TEST(SgShading, OccluderCapWithAndWithoutTheKeptExponential) {
+  const Eigen::Vector3d n = Eigen::Vector3d::UnitZ(), dtheta(0.4, -1.1, 0.2);
+  for (double lambda : {0.5, 8.0, 250.0}) {
+    const ProductLobe kept = EvalProductLobe(Eigen::Vector3d(0.3, -0.2, 0.9).normalized(), lambda, n, CosineModel::kExact);
+    ASSERT_EQ(kept.exp_minus_2lp, std::exp(-2 * kept.lambda_prime));
+    ProductLobe unset = kept;
+    unset.exp_minus_2lp = -1;
+    for (double theta : {-0.05, -0.001, 0.0, 0.002, 0.04})
+      for (double occluder_cos : {0.9, 0.2}) {
+        const LobeShading a = ShadeLobe(kept, theta, dtheta, occluder_cos), b = ShadeLobe(unset, theta, dtheta, occluder_cos);
+        EXPECT_EQ(a.value, b.value) << lambda << " " << theta;
+        EXPECT_EQ(a.dvalue_dlambda, b.dvalue_dlambda);
+        EXPECT_EQ(a.dvalue_dmu, b.dvalue_dmu);
+        if (theta <= 0) {
+          EXPECT_LT(a.value, kept.scale);  // in shadow: the cap and the sigmoid act
+        }
+      }
+  }
+}
+
 // `sg` caps the sigmoid's steepness (kSgMaxVisibilitySteepness); the paper's
 // model does not. A sharp lobe then keeps a finite shadow edge whose width
 // the cap sets, its derivatives stay consistent, and the occluder searches
