@@ -30,23 +30,24 @@ double AzimuthIntegral(double A, double B) {
   return 2 * (A * phi0 + std::sqrt(std::max(0.0, B * B - A * A)));
 }
 
-// The integral over u in [a, b] of the integrand below, by 16-point
-// Gauss-Legendre on pieces graded geometrically towards b.
+// One piece [lo, hi] of 16-point Gauss-Legendre, added to *sum node by node.
+template <typename F>
+void GaussPiece(double lo, double hi, const F& f, double* sum) {
+  const double mid = 0.5 * (lo + hi), half = 0.5 * (hi - lo);
+  for (size_t k = 0; k < kNodes.size(); ++k)
+    for (double sign : {-1.0, 1.0}) *sum += kWeights[k] * half * f(mid + sign * half * kNodes[k]);
+}
+
+// The integral over [a, b] on pieces graded geometrically towards b.
 template <typename F>
 double GradedGauss(double a, double b, const F& f) {
-  double sum = 0;
-  auto gauss = [&](double lo, double hi) {
-    const double mid = 0.5 * (lo + hi), half = 0.5 * (hi - lo);
-    for (size_t k = 0; k < kNodes.size(); ++k)
-      for (double sign : {-1.0, 1.0}) sum += kWeights[k] * half * f(mid + sign * half * kNodes[k]);
-  };
-  double lo = a;
+  double sum = 0, lo = a;
   for (int level = 1; level <= kGradedLevels; ++level) {
     const double hi = b - (b - a) * std::ldexp(1.0, -level);
-    gauss(lo, hi);
+    GaussPiece(lo, hi, f, &sum);
     lo = hi;
   }
-  gauss(lo, b);
+  GaussPiece(lo, b, f, &sum);
   return sum;
 }
 
@@ -55,18 +56,13 @@ double GradedGauss(double a, double b, const F& f) {
 template <typename F>
 double GradedGaussBothEnds(double a, double b, int levels, const F& f) {
   double sum = 0;
-  auto gauss = [&](double lo, double hi) {
-    const double mid = 0.5 * (lo + hi), half = 0.5 * (hi - lo);
-    for (size_t k = 0; k < kNodes.size(); ++k)
-      for (double sign : {-1.0, 1.0}) sum += kWeights[k] * half * f(mid + sign * half * kNodes[k]);
-  };
   const double w = b - a;
   for (int level = 1; level <= levels; ++level) {
-    gauss(a + w * std::ldexp(1.0, -level - 1), a + w * std::ldexp(1.0, -level));
-    gauss(b - w * std::ldexp(1.0, -level), b - w * std::ldexp(1.0, -level - 1));
+    GaussPiece(a + w * std::ldexp(1.0, -level - 1), a + w * std::ldexp(1.0, -level), f, &sum);
+    GaussPiece(b - w * std::ldexp(1.0, -level), b - w * std::ldexp(1.0, -level - 1), f, &sum);
   }
-  gauss(a, a + w * std::ldexp(1.0, -levels - 1));
-  gauss(b - w * std::ldexp(1.0, -levels - 1), b);
+  GaussPiece(a, a + w * std::ldexp(1.0, -levels - 1), f, &sum);
+  GaussPiece(b - w * std::ldexp(1.0, -levels - 1), b, f, &sum);
   return sum;
 }
 
@@ -108,8 +104,8 @@ double ValueQuadrature(double lambda, double c) {
 // [-s, s] the plane's horizon misses the ring of directions at theta: the
 // azimuth integral is 2 pi c x where c x > 0 and 0 elsewhere, so those parts
 // are integral of 2 pi c x e^{lambda (x - 1)} dx in closed form. Only the
-// band between needs the quadrature (the same graded rule, in the same u):
-// a third of ValueQuadrature's work, and for c < 0 the kink at x = -s no
+// band between needs the quadrature (the same rule, in the same u, on 14
+// pieces against ValueQuadrature's 75), and for c < 0 the kink at x = -s no
 // longer falls inside a piece.
 double ValueSplit(double lambda, double c) {
   c = std::clamp(c, -1.0, 1.0);

@@ -13,8 +13,8 @@ struct CosineIntegral {
 };
 
 // Good to ~2e-7 of the lobe's power 2 pi (1 - e^{-2 lambda}) / lambda for
-// lambda in [0.01, 1e4] (against a fine quadrature in cos(theta) split at
-// the kinks; tests/sg_render_test.cc), and to ~6e-6 below 0.01.
+// lambda from 0.01 to 5000 (measured against a fine quadrature in cos(theta)
+// split at the kinks; tests/sg_render_test.cc), and to ~6e-6 below 0.01.
 CosineIntegral SgCosineIntegral(double lambda, double c);
 // The same C without its derivatives, for a fifth of the time (they are
 // central differences): renders and residuals need no more.
