@@ -766,8 +766,10 @@ FitResult CarryFit(const FitResult& direct, const FitData& d, const ShadowPlaneM
 
 // Every lobe of the fits, then each again at o.pool_sharpness's multiples
 // of its sharpness (within the refinement's bounds; a copy the bounds make
-// equal to its lobe is left out).
-std::vector<SgLobe> PooledLobes(const std::vector<SgLighting>& fits, const SgSolverOptions& o) {
+// equal to its lobe is left out), and with o.pool_sky_lobe the flattest
+// lobe the refinement allows, about the plane's normal.
+std::vector<SgLobe> PooledLobes(const std::vector<SgLighting>& fits, const SgSolverOptions& o,
+                                const Eigen::Vector3d& plane_normal) {
   std::vector<SgLobe> lobes;
   for (const SgLighting& f : fits) lobes.insert(lobes.end(), f.lobes.begin(), f.lobes.end());
   const RefineLmOptions bounds;
@@ -778,6 +780,12 @@ std::vector<SgLobe> PooledLobes(const std::vector<SgLighting>& fits, const SgSol
       copy.sharpness = std::clamp(copy.sharpness * factor, bounds.min_sharpness, bounds.max_sharpness);
       if (copy.sharpness != lobes[i].sharpness) lobes.push_back(copy);
     }
+  if (o.pool_sky_lobe && !lobes.empty()) {
+    SgLobe sky;
+    sky.axis = plane_normal.normalized();
+    sky.sharpness = bounds.min_sharpness;
+    lobes.push_back(sky);
+  }
   return lobes;
 }
 
@@ -868,7 +876,7 @@ FitResult PoolFits(const std::vector<FitData>& sets, bool bounce, const std::vec
                    const SgSolverOptions& o) {
   std::vector<SgLighting> lightings;
   for (const FitResult& f : fits) lightings.push_back(f.lighting);
-  const std::vector<SgLobe> lobes = PooledLobes(lightings, o);
+  const std::vector<SgLobe> lobes = PooledLobes(lightings, o, sets[0].model.normal);
   // The casters' irradiance does not depend on the points: once for every set.
   const std::array<Eigen::MatrixXf, 3> irradiance = bounce ? LobesBounceIrradiance(sets[0].model, lobes)
                                                            : std::array<Eigen::MatrixXf, 3>{};
@@ -945,7 +953,7 @@ SgLighting PoolLobes(const ShadowPlaneModel& model, const std::vector<double>& w
                      const ShadowPlaneModel& hold_model, const std::vector<Eigen::Vector3f>& hold_targets,
                      const SgSolverOptions& o, std::vector<double>* heldout_path) {
   SHADOWSG_CHECK(weight.size() == model.points.size() && targets.size() == model.points.size());
-  const std::vector<SgLobe> lobes = PooledLobes(fits, o);
+  const std::vector<SgLobe> lobes = PooledLobes(fits, o, model.normal);
   const std::array<Eigen::MatrixXf, 3> irradiance = LobesBounceIrradiance(model, lobes);
   const std::array<Eigen::MatrixXf, 3>* shared = irradiance[0].size() ? &irradiance : nullptr;
   const LobeNormalEquations eq =

@@ -40,7 +40,8 @@
 //    (later_restarts_bounce).
 // 7. Pool (pool_restarts): where a model finished more than one restart,
 //    all their lobes together, and each again at a few multiples of its
-//    sharpness (pool_sharpness), in the reverse order of backward elimination
+//    sharpness (pool_sharpness), and an almost even sky about the plane's
+//    normal (pool_sky_lobe), in the reverse order of backward elimination
 //    on all the restarts' fit pixels, amplitudes by NNLS; the smallest
 //    leading set within size_tolerance of the best held-out error is one
 //    more finished fit. A model's single fit is pooled the same way and
@@ -130,6 +131,13 @@ struct SgSolverOptions {
   // 0.23-0.56 dB (fast) and 0.13-0.27 (balanced), the interior's balanced
   // spread 0.30 -> 0.23, at 0.98-1.07x the time (README).
   std::vector<double> pool_sharpness = {0.25, 0.5, 2};
+  // The pool also offers the flattest lobe the refinement allows (sharpness
+  // 0.05) about the plane's normal: an almost even sky. On pub_torus_sunsky
+  // the fits that reach the higher basin (44.3-44.8 dB, balanced) hold such
+  // a lobe at the sharpness bound; seeds 0-2 (43.6-43.8) held none and put
+  // 4-5 units of power below the horizon instead, and the size path never
+  // offers one (the dictionary's flattest atom is 0.5).
+  bool pool_sky_lobe = true;
   // The pool of the model with the casters' bounce also holds the direct
   // model's finished fits (amplitudes re-solved with the bounce). On
   // pub_torus_sunsky the direct fit places the sun well with 2-3 lobes while

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "solver/sg_paper_solver.h"
+#include "solver/sg_refine_lm.h"
 #include "solver/sg_solver.h"
 #include "solver/shadow_plane.h"
 #include "sg_test_scene.h"
@@ -288,6 +289,7 @@ TEST(SgSolver, PoolJoinsPartialFitsAndKeepsEachLightOnce) {
   const std::vector<double> weight(model.points.size(), 1.0);
   SgSolverOptions o = SgSolverOptions::Budget("balanced");
   o.pool_sharpness = {};  // the fits' own lobes (PoolBlendsSharpnessCopies: with copies)
+  o.pool_sky_lobe = false;  // PoolOffersAnEvenSky
   SgLighting sun = truth, rest = truth;
   sun.lobes = {truth.lobes[0]};
   rest.lobes = {truth.lobes[1], truth.lobes[2]};
@@ -318,6 +320,41 @@ TEST(SgSolver, PoolJoinsPartialFitsAndKeepsEachLightOnce) {
   EXPECT_TRUE(PoolLobes(model, weight, targets, {}, model, targets, o).lobes.empty());
 }
 
+// A sun over an almost even sky, and a fit that found the sun only: the
+// pool offers the flattest lobe the refinement allows about the plane's
+// normal, and NNLS gives it the sky's light.
+TEST(SgSolver, PoolOffersAnEvenSky) {
+  const ShadowPlaneModel model = SgTestModel(48);
+  const RefineLmOptions bounds;
+  SgLighting truth;
+  truth.lobes.push_back({Eigen::Vector3d(0.4, 0.3, 0.87).normalized(), 60.0, Eigen::Vector3d(300, 280, 250)});
+  truth.lobes.push_back({model.normal.normalized(), bounds.min_sharpness, Eigen::Vector3d(2.0, 2.5, 3.0)});
+  const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, truth);
+  const std::vector<double> weight(model.points.size(), 1.0);
+  SgLighting sun = truth;
+  sun.lobes = {truth.lobes[0]};
+  SgSolverOptions o = SgSolverOptions::Budget("balanced");
+  o.pool_sharpness = {};
+  o.pool_sky_lobe = false;
+  const SgLighting without = PoolLobes(model, weight, targets, {sun}, model, targets, o);
+  ASSERT_EQ(without.lobes.size(), 1u);
+  o.pool_sky_lobe = true;
+  std::vector<double> path;
+  const SgLighting with = PoolLobes(model, weight, targets, {sun}, model, targets, o, &path);
+  EXPECT_EQ(path.size(), 2u);
+  ASSERT_EQ(with.lobes.size(), 2u);
+  const auto sky = std::find_if(with.lobes.begin(), with.lobes.end(),
+                                [&](const SgLobe& l) { return l.sharpness == bounds.min_sharpness; });
+  ASSERT_NE(sky, with.lobes.end());
+  EXPECT_LT((sky->axis - model.normal.normalized()).norm(), 1e-12);
+  EXPECT_LT((sky->amplitude - truth.lobes[1].amplitude).norm(), 1e-6);
+  const double psnr_without = Psnr(RenderShadowPlane(model, without), targets);
+  EXPECT_LT(psnr_without, 40.0);
+  EXPECT_GT(Psnr(RenderShadowPlane(model, with), targets), 80.0);
+  // No fit, no pool: the sky alone is not offered.
+  EXPECT_TRUE(PoolLobes(model, weight, targets, {}, model, targets, o).lobes.empty());
+}
+
 // A fit whose lobe has the right axis but not the right sharpness: the pool
 // offers it at other sharpness values too, and NNLS takes the one that fits.
 TEST(SgSolver, PoolBlendsSharpnessCopies) {
@@ -330,6 +367,7 @@ TEST(SgSolver, PoolBlendsSharpnessCopies) {
   fit.lobes[0].sharpness = 40;
   SgSolverOptions o = SgSolverOptions::Budget("balanced");
   o.pool_sharpness = {};
+  o.pool_sky_lobe = false;  // PoolOffersAnEvenSky
   const SgLighting own = PoolLobes(model, weight, targets, {fit}, model, targets, o);
   ASSERT_EQ(own.lobes.size(), 1u);
   EXPECT_EQ(own.lobes[0].sharpness, 40);
@@ -371,6 +409,7 @@ TEST(SgSolver, PoolWithTheBounceKeepsEachLobesOwnBounce) {
   for (SgLobe l : truth.lobes) fit.lobes.push_back({l.axis, l.sharpness, 2 * l.amplitude});
   SgSolverOptions o = SgSolverOptions::Budget("balanced");
   o.pool_sharpness = {};
+  o.pool_sky_lobe = false;
   std::vector<double> path;
   const SgLighting pooled = PoolLobes(model, weight, targets, {fit}, model, targets, o, &path);
   ASSERT_EQ(path.size(), 4u);
