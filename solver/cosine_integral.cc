@@ -66,38 +66,47 @@ double GradedGaussBothEnds(double a, double b, int levels, const F& f) {
   return sum;
 }
 
+// C's integrand after the substitution u in [0, 1]: exp(-lambda t) dt =
+// (1 - e^{-2 lambda}) / lambda du with t = 1 - cos(theta), the azimuth
+// integral at cos(theta) = 1 - t(u) (both quadratures below).
+struct IntegrandInU {
+  double lambda, c, s, q;  // s = sqrt(1 - c^2), q = 1 - e^{-2 lambda}
+  IntegrandInU(double lambda_in, double c_in)
+      : lambda(lambda_in),
+        c(std::clamp(c_in, -1.0, 1.0)),
+        s(std::sqrt(std::max(0.0, 1 - c * c))),
+        q(-std::expm1(-2 * lambda)) {}
+  // t in [0, 2]; u * q can round to 1 for large lambda, where t = 2 (theta = pi).
+  double T(double u) const { return u * q < 1 ? std::min(2.0, -std::log1p(-u * q) / lambda) : 2.0; }
+  double operator()(double u) const {
+    const double x = 1 - T(u);  // cos(theta)
+    const double sn = std::sqrt(std::max(0.0, 1 - x * x));
+    return AzimuthIntegral(c * x, s * sn);
+  }
+};
+
 // Below this sharpness the closed form of the outer parts (ValueSplit)
 // cancels to ~1e-16 / lambda relative: the whole quadrature instead.
 constexpr double kClosedFormMinLambda = 0.01;
 
-// C by the substitution u in [0, 1]: exp(-lambda t) dt = (1 - e^{-2 lambda}) / lambda du
-// with t = 1 - cos(theta), split where the azimuth integrand has kinks.
-double ValueQuadrature(double lambda, double c) {
-  c = std::clamp(c, -1.0, 1.0);
-  const double s = std::sqrt(std::max(0.0, 1 - c * c));
-  const double q = -std::expm1(-2 * lambda);  // 1 - e^{-2 lambda}
-  // t in [0, 2]; u * q can round to 1 for large lambda, where t = 2 (theta = pi).
-  auto t_of_u = [&](double u) { return u * q < 1 ? std::min(2.0, -std::log1p(-u * q) / lambda) : 2.0; };
+// C in u, split where the azimuth integrand has kinks.
+double ValueQuadrature(double lambda, double c_in) {
+  const IntegrandInU f(lambda, c_in);
   auto u_of_theta = [&](double theta) {
     const double t = 1 - std::cos(theta);
-    return -std::expm1(-lambda * t) / q;
+    return -std::expm1(-lambda * t) / f.q;
   };
   // Kinks at theta = |pi/2 - theta_n| and pi/2 + theta_n, theta_n = acos(c).
-  const double theta_n = std::acos(c);
+  const double theta_n = std::acos(f.c);
   std::array<double, 4> cuts = {0.0, u_of_theta(std::abs(M_PI / 2 - theta_n)),
                                 theta_n < M_PI / 2 ? u_of_theta(M_PI / 2 + theta_n) : 1.0, 1.0};
   std::sort(cuts.begin(), cuts.end());
-  auto integrand = [&](double u) {
-    const double x = 1 - t_of_u(u);  // cos(theta)
-    const double sn = std::sqrt(std::max(0.0, 1 - x * x));
-    return AzimuthIntegral(c * x, s * sn);
-  };
   double sum = 0;
   // t(u) has a logarithmic singularity at u = 1 (theta = pi for large
   // lambda): grade the pieces geometrically towards each segment's end.
   for (int seg = 0; seg + 1 < 4; ++seg)
-    if (cuts[seg + 1] > cuts[seg]) sum += GradedGauss(cuts[seg], cuts[seg + 1], integrand);
-  return q / lambda * sum;
+    if (cuts[seg + 1] > cuts[seg]) sum += GradedGauss(cuts[seg], cuts[seg + 1], f);
+  return f.q / lambda * sum;
 }
 
 // C split at the kinks x = cos(theta) = +-s (s = sin(theta_n)). Outside
@@ -107,10 +116,9 @@ double ValueQuadrature(double lambda, double c) {
 // band between needs the quadrature (the same rule, in the same u, on 14
 // pieces against ValueQuadrature's 75), and for c < 0 the kink at x = -s no
 // longer falls inside a piece.
-double ValueSplit(double lambda, double c) {
-  c = std::clamp(c, -1.0, 1.0);
-  const double s = std::sqrt(std::max(0.0, 1 - c * c));
-  const double q = -std::expm1(-2 * lambda);
+double ValueSplit(double lambda, double c_in) {
+  const IntegrandInU f(lambda, c_in);
+  const double c = f.c, s = f.s;
   // integral over [a, b] of x e^{lambda (x - 1)} dx, from [e^{lambda (x - 1)} (x / lambda - 1 / lambda^2)].
   auto moment = [&](double a, double b) {
     const double ea = std::exp(lambda * (a - 1)), eb = std::exp(lambda * (b - 1));
@@ -120,15 +128,9 @@ double ValueSplit(double lambda, double c) {
   if (c > 0) outer = 2 * M_PI * c * moment(s, 1.0);
   else if (c < 0) outer = 2 * M_PI * c * moment(-1.0, -s);
   if (!(s > 0)) return outer;
-  auto t_of_u = [&](double u) { return u * q < 1 ? std::min(2.0, -std::log1p(-u * q) / lambda) : 2.0; };
-  auto u_of_x = [&](double x) { return -std::expm1(-lambda * (1 - x)) / q; };
-  auto band = [&](double u) {
-    const double x = 1 - t_of_u(u);
-    const double sn = std::sqrt(std::max(0.0, 1 - x * x));
-    return AzimuthIntegral(c * x, s * sn);
-  };
+  auto u_of_x = [&](double x) { return -std::expm1(-lambda * (1 - x)) / f.q; };
   const double a = u_of_x(s), b = u_of_x(-s);
-  return outer + (b > a ? q / lambda * GradedGaussBothEnds(a, b, kBandLevels, band) : 0.0);
+  return outer + (b > a ? f.q / lambda * GradedGaussBothEnds(a, b, kBandLevels, f) : 0.0);
 }
 
 double Value(double lambda, double c) {
