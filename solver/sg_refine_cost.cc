@@ -215,7 +215,8 @@ bool RefineCost::CostExceeds(const std::vector<SgLobe>& lobes, double limit) con
   for (long begin = 0; begin < stop; begin += chunk) {
     const long end = std::min(begin + chunk, stop);
     Eigen::MatrixXf theta;
-    model_.cones.AnglesOfRange(axes, static_cast<size_t>(begin), static_cast<size_t>(end), &theta, &caps);
+    model_.cones.AnglesOfRange(axes, static_cast<size_t>(begin), static_cast<size_t>(end), &theta, &caps,
+                               CapSides::kBoth);
     double sum_sq = 0;
 #pragma omp parallel for schedule(static) reduction(+ : sum_sq)
     for (long k = begin; k < end; ++k) {

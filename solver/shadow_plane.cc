@@ -59,11 +59,11 @@ void PlaneAngles(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3
                  const std::vector<float>& caps, Eigen::MatrixXf* theta, std::vector<Eigen::Vector3f>* witness,
                  OccluderCones::AngleHints* hints) {
   if (model.HasCones()) {
-    model.cones.Angles(axes, theta, witness, &caps, hints);
+    model.cones.Angles(axes, theta, witness, &caps, hints, CapSides::kBoth);
     return;
   }
   if (hints) *hints = {};  // none learnt
-  SignedAnglesWithWitness(model.occluders, model.points, axes, theta, witness, model.search, &caps);
+  SignedAnglesWithWitness(model.occluders, model.points, axes, theta, witness, model.search, &caps, CapSides::kBoth);
 }
 
 void PlaneAngles(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3d>& axes,
@@ -325,8 +325,8 @@ std::vector<Eigen::Vector3f> RenderDirect(const ShadowPlaneModel& model, const S
   for (size_t begin = 0; begin < model.points.size(); begin += chunk_size) {
     const size_t end = std::min(model.points.size(), begin + chunk_size);
     const std::vector<Eigen::Vector3d> chunk(model.points.begin() + begin, model.points.begin() + end);
-    if (model.HasCones()) model.cones.Angles(axes, &theta, nullptr, &caps);
-    else SignedAnglesWithWitness(model.occluders, chunk, axes, &theta, nullptr, model.search, &caps);
+    if (model.HasCones()) model.cones.Angles(axes, &theta, nullptr, &caps, nullptr, CapSides::kBoth);
+    else SignedAnglesWithWitness(model.occluders, chunk, axes, &theta, nullptr, model.search, &caps, CapSides::kBoth);
 #pragma omp parallel for schedule(static)
     for (long k = 0; k < static_cast<long>(chunk.size()); ++k) {
       Eigen::Vector3d sum = Eigen::Vector3d::Zero();

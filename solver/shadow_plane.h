@@ -71,7 +71,8 @@ struct ShadowPlaneModel {
 
 // theta (and witness directions, when non-null) of every point of the model for
 // the lobes' axes, using the prepared cones when there are. theta is only
-// resolved up to where the lobe's visibility sigmoid saturates (VisibilityCap).
+// resolved up to where the lobe's visibility sigmoid saturates (VisibilityCap),
+// both ways (CapSides::kBoth): at or below minus the cap it is some leaf's.
 // hints: OccluderCones::Angles's, used with prepared cones only.
 void PlaneAngles(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3d>& axes,
                  const std::vector<float>& caps, Eigen::MatrixXf* theta, std::vector<Eigen::Vector3f>* witness,
@@ -86,7 +87,9 @@ void PlaneAngles(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3
 std::vector<float> OccluderConeCosines(const std::vector<SphereTree>& trees, const std::vector<Eigen::Vector3d>& points);
 
 // The theta beyond which sigmoid(k(lambda') theta) is 1 (and its derivative 0)
-// to double precision: no occluder search needs to look further. A caller
+// to double precision, and below minus which it is 0: no occluder search
+// needs to look further (ShadeLobe's value there no longer depends on theta).
+// A caller
 // whose shading is float may pass a lower saturation (z at which the sigmoid
 // is within an ulp of 1 in float).
 float VisibilityCap(const ProductLobe& product, double saturation = kSigmoidSaturation);

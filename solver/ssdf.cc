@@ -505,8 +505,9 @@ constexpr size_t kNoneLeaf = std::numeric_limits<size_t>::max();
 // not beat *best with (pruned subtrees' bounds, leaves' own values), and
 // *displaced to the lowest value of a leaf that was *best_leaf and lost it:
 // min(floor, displaced) bounds every leaf but the final one. The stack holds
-// at most B entries per level.
-void ExactTreeF(const SearchPoint& sp, const FlatTree& tr, float mx, float my, float mz,
+// at most B entries per level. Once *best is at or below `stop` the search
+// ends there (floor and displaced are then no bounds).
+void ExactTreeF(const SearchPoint& sp, const FlatTree& tr, float mx, float my, float mz, float stop,
                 std::vector<StackEntry>* stack, float* best_out, size_t* best_leaf_out, float* floor_out,
                 float* displaced_out) {
   // Locals, written back once: through the pointers every update of the
@@ -554,6 +555,7 @@ void ExactTreeF(const SearchPoint& sp, const FlatTree& tr, float mx, float my, f
       const size_t leaf = tr.Leaf(first);
       sp.Leaves(leaf, B, mx, my, mz, vals.data());
       for (int k = 0; k < B; ++k) offer(vals[k], leaf + k);
+      if (best <= stop) break;
       continue;
     }
     ConeThetas(sp.table, tr.Inner(first), B, mx, my, mz, vals.data());
@@ -723,9 +725,10 @@ namespace {
 // theta (and the witness direction) of every axis for one point's cone table.
 // hint_leaf, hint_floor (optional, in and out, one per axis) and drift (the
 // angle each axis moved since the hints were made): OccluderCones::AngleHints.
+// sides: CapSides (kBoth: a leaf at or below minus the cap ends the search).
 void PointAngles(const SearchPoint& sp, const std::vector<Eigen::Vector3f>& unit, const std::vector<int>& order,
-                 SsdfSearch search, const std::vector<float>* caps, std::vector<StackEntry>* stack, float* out_row,
-                 long out_stride, Eigen::Vector3f* witness_row, uint32_t* hint_leaf = nullptr,
+                 SsdfSearch search, const std::vector<float>* caps, CapSides sides, std::vector<StackEntry>* stack,
+                 float* out_row, long out_stride, Eigen::Vector3f* witness_row, uint32_t* hint_leaf = nullptr,
                  float* hint_floor = nullptr, float* hint_rival = nullptr, const float* drift = nullptr) {
   const FlatTrees& flat = sp.flat;
   size_t warm = flat.trees[0].leaves;  // leaf indices from here on
@@ -739,6 +742,8 @@ void PointAngles(const SearchPoint& sp, const std::vector<Eigen::Vector3f>& unit
     Cone hint_cone{0, 0, 1, -kInfF}, warm_cone{0, 0, 1, -kInfF};
     if (search == SsdfSearch::kExact) {
       best = caps ? (*caps)[a] : kInfF;
+      // Deep enough in some leaf's cone, theta need not be the minimum.
+      const float stop = caps && sides == CapSides::kBoth ? -best : -kInfF;
       const uint32_t hinted = hint_leaf && hint_leaf[a] < flat.leaves.count ? hint_leaf[a] : OccluderCones::kNoLeaf;
       float hint_value = kInfF;
       if (hint_floor) {
@@ -760,11 +765,13 @@ void PointAngles(const SearchPoint& sp, const std::vector<Eigen::Vector3f>& unit
           hint_cone = sp.LeafCone(hinted);
           hint_cone_leaf = hinted;
           hint_value = ConeThetaOf(hint_cone, mx, my, mz);
-          if (hint_value < best && hint_value + kHintMargin <= rival) {
+          const bool deep = hint_value <= stop;
+          if (deep || (hint_value < best && hint_value + kHintMargin <= rival)) {
             out_row[a * out_stride] = hint_value;
             if (witness_row) witness_row[a] = Eigen::Vector3f(hint_cone.ux, hint_cone.uy, hint_cone.uz);
-            hint_floor[a] = hint_value;
-            hint_rival[a] = rival;
+            // Deep: another leaf may be lower, so no bound is known.
+            hint_floor[a] = deep ? -kInfF : hint_value;
+            hint_rival[a] = deep ? -kInfF : rival;
             warm = hinted;
             continue;
           }
@@ -782,12 +789,16 @@ void PointAngles(const SearchPoint& sp, const std::vector<Eigen::Vector3f>& unit
         if (warm_value < best) best = warm_value, argmin = warm;
       }
       float floor = kInfF, displaced = kInfF;
-      for (const FlatTree& tr : flat.trees) ExactTreeF(sp, tr, mx, my, mz, stack, &best, &argmin, &floor, &displaced);
+      for (const FlatTree& tr : flat.trees) {
+        if (best <= stop) break;
+        ExactTreeF(sp, tr, mx, my, mz, stop, stack, &best, &argmin, &floor, &displaced);
+      }
       if (argmin != kNoneLeaf) warm = argmin;
       if (hint_leaf) {
+        const bool deep = best <= stop;  // the search may have ended early: no bounds
         hint_leaf[a] = argmin == kNoneLeaf ? OccluderCones::kNoLeaf : static_cast<uint32_t>(argmin);
-        hint_floor[a] = argmin == kNoneLeaf ? floor : best;
-        hint_rival[a] = argmin == kNoneLeaf ? -kInfF : std::min(floor, displaced);
+        hint_floor[a] = deep ? -kInfF : argmin == kNoneLeaf ? floor : best;
+        hint_rival[a] = deep || argmin == kNoneLeaf ? -kInfF : std::min(floor, displaced);
       }
     } else {
       best = kInfF;
@@ -826,7 +837,7 @@ std::vector<Eigen::Vector3f> UnitAxes(const std::vector<Eigen::Vector3d>& axes) 
 void SignedAnglesWithWitness(const std::vector<SphereTree>& world_trees, const std::vector<Eigen::Vector3d>& points,
                              const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* out,
                              std::vector<Eigen::Vector3f>* witness, SsdfSearch search,
-                             const std::vector<float>* caps) {
+                             const std::vector<float>* caps, CapSides sides) {
   CheckTrees(world_trees);
   SHADOWSG_CHECK(!caps || caps->size() == axes.size());
   for (const auto& t : world_trees) SHADOWSG_CHECK(t.nodes.empty() || t.branching <= 64);
@@ -855,7 +866,8 @@ void SignedAnglesWithWitness(const std::vector<SphereTree>& world_trees, const s
 #pragma omp for schedule(dynamic, kChunk)
     for (long p = 0; p < np; ++p) {
       FillConeTable(flat, points[p], &table, &leaf_table);
-      PointAngles({flat, table, points[p].data(), &leaf_table}, unit, order, search, caps, &stack, &(*out)(p, 0), out->rows(),
+      PointAngles({flat, table, points[p].data(), &leaf_table}, unit, order, search, caps, sides, &stack, &(*out)(p, 0),
+                  out->rows(),
                   witness ? &(*witness)[static_cast<size_t>(p) * na] : nullptr);
     }
   }
@@ -893,19 +905,19 @@ size_t OccluderCones::size() const { return impl_ ? impl_->tables.size() : 0; }
 
 void OccluderCones::Angles(const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* out,
                            std::vector<Eigen::Vector3f>* witness, const std::vector<float>* caps,
-                           AngleHints* hints) const {
-  Search(axes, 0, size(), out, witness, caps, hints);
+                           AngleHints* hints, CapSides sides) const {
+  Search(axes, 0, size(), out, witness, caps, hints, sides);
 }
 
 void OccluderCones::AnglesOfRange(const std::vector<Eigen::Vector3d>& axes, size_t begin, size_t end,
-                                  Eigen::MatrixXf* out, const std::vector<float>* caps) const {
+                                  Eigen::MatrixXf* out, const std::vector<float>* caps, CapSides sides) const {
   SHADOWSG_CHECK(begin <= end && end <= size());
-  Search(axes, begin, end, out, nullptr, caps, nullptr);
+  Search(axes, begin, end, out, nullptr, caps, nullptr, sides);
 }
 
 void OccluderCones::Search(const std::vector<Eigen::Vector3d>& axes, size_t begin, size_t end, Eigen::MatrixXf* out,
                            std::vector<Eigen::Vector3f>* witness, const std::vector<float>* caps,
-                           AngleHints* hints) const {
+                           AngleHints* hints, CapSides sides) const {
   SHADOWSG_CHECK(!caps || caps->size() == axes.size());
   SHADOWSG_CHECK(!hints || (begin == 0 && end == size()));
   // Hints made for another number of axes or points, or for the coarse-to-fine
@@ -942,7 +954,7 @@ void OccluderCones::Search(const std::vector<Eigen::Vector3d>& axes, size_t begi
     for (long q = 0; q < np; ++q) {
       const size_t p = begin + static_cast<size_t>(q), at = static_cast<size_t>(q) * na;
       if (q + 1 < np) PrefetchTable(impl_->tables[p + 1]);
-      PointAngles({impl_->flat, impl_->tables[p], impl_->points[p].data()}, unit, order, impl_->search, caps, &stack,
+      PointAngles({impl_->flat, impl_->tables[p], impl_->points[p].data()}, unit, order, impl_->search, caps, sides, &stack,
                   &(*out)(q, 0), out->rows(), witness ? &(*witness)[at] : nullptr,
                   hints ? &hints->leaf[at] : nullptr, hints ? &hints->floor[at] : nullptr,
                   hints ? &hints->rival[at] : nullptr, drift.data());

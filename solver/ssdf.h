@@ -38,6 +38,15 @@ enum class SsdfSearch {
 // The reference code's ssdf_sph_coarse2fine_k.
 constexpr int kCoarseToFineKeep = 3;
 
+// Which side of a caller's caps (one per axis, kExact) theta is needed
+// exactly on. kAbove: theta at or above the cap is returned as the cap.
+// kBoth: besides, where some leaf's theta is at or below minus the cap the
+// search may stop at that leaf: theta is then that leaf's, at or below minus
+// the cap but not always the minimum, with its witness. For a visibility
+// sigmoid that is saturated both ways (1 above the cap, 0 below minus it);
+// the sharp lobes' deep shadows then need no search for their deepest leaf.
+enum class CapSides { kAbove, kBoth };
+
 // theta(x, mu) = min over the LEAF spheres s of all trees of
 //   acos(dot(c_s - x, mu) / |c_s - x|) - asin(min(1, r_s / |c_s - x|))
 // (world-space trees; empty slots ignored). kExact: branch-and-bound over the
@@ -69,7 +78,8 @@ void SignedAngles(const std::vector<SphereTree>& world_trees, const std::vector<
 void SignedAnglesWithWitness(const std::vector<SphereTree>& world_trees, const std::vector<Eigen::Vector3d>& points,
                              const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* out,
                              std::vector<Eigen::Vector3f>* witness, SsdfSearch search = SsdfSearch::kExact,
-                             const std::vector<float>* caps = nullptr);  // as OccluderCones::Angles
+                             const std::vector<float>* caps = nullptr,  // as OccluderCones::Angles
+                             CapSides sides = CapSides::kAbove);
 
 // The cone tables of a fixed set of points, computed once: the occluders seen
 // from a plane point never change while the lighting is fitted, so solvers
@@ -110,18 +120,20 @@ class OccluderCones {
   // search without hints up to float rounding (a tighter first bound may
   // prune a subtree whose bound ties the minimum), and the attaining leaf may
   // differ where two leaves tie.
+  // sides: CapSides, for the caps.
   void Angles(const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* theta,
               std::vector<Eigen::Vector3f>* witness, const std::vector<float>* caps = nullptr,
-              AngleHints* hints = nullptr) const;
+              AngleHints* hints = nullptr, CapSides sides = CapSides::kAbove) const;
   // theta of the points [begin, end) only (rows in that order), without
   // witnesses or hints: a caller that may stop after a few of the points.
   void AnglesOfRange(const std::vector<Eigen::Vector3d>& axes, size_t begin, size_t end, Eigen::MatrixXf* theta,
-                     const std::vector<float>* caps = nullptr) const;
+                     const std::vector<float>* caps = nullptr, CapSides sides = CapSides::kAbove) const;
 
  private:
   // Angles over the points [begin, end) (hints: the whole range only).
   void Search(const std::vector<Eigen::Vector3d>& axes, size_t begin, size_t end, Eigen::MatrixXf* theta,
-              std::vector<Eigen::Vector3f>* witness, const std::vector<float>* caps, AngleHints* hints) const;
+              std::vector<Eigen::Vector3f>* witness, const std::vector<float>* caps, AngleHints* hints,
+              CapSides sides) const;
 
   struct Impl;
   std::shared_ptr<Impl> impl_;

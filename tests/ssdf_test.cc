@@ -273,6 +273,63 @@ TEST(Ssdf, HintsRivalBoundsTheOtherLeaves) {
   EXPECT_GT(held, found / 10);
 }
 
+// With CapSides::kBoth a search may stop at the first leaf at or below minus
+// the cap (a sigmoid saturated at 0 there): theta is then that leaf's, above
+// the true minimum; between the caps it is the minimum, above them the cap,
+// with hints (which must not claim bounds they do not have) and without.
+TEST(Ssdf, BothSidedCapsStopAtADeepLeaf) {
+  const auto trees = TestTrees(31);
+  std::mt19937_64 rng(16);
+  const auto points = TestPoints(rng, 250);
+  const OccluderCones cones(trees, points);
+  std::vector<Eigen::Vector3d> axes = {Eigen::Vector3d(0.3, 0.1, 1).normalized(),
+                                       Eigen::Vector3d(-0.5, 0.4, 0.8).normalized(), Eigen::Vector3d(1, -1, 0.3)};
+  const std::vector<float> caps = {0.02f, 0.1f, 0.05f};
+  std::vector<SphereTree> leaves;  // each leaf as a tree of its own
+  for (const SphereTree& t : trees)
+    for (size_t i = t.LevelBegin(t.levels - 1); i < t.nodes.size(); ++i)
+      if (!t.nodes[i].empty()) leaves.push_back({1, t.branching, {t.nodes[i]}});
+  OccluderCones::AngleHints hints;
+  const Eigen::AngleAxisd turn(0.01, Eigen::Vector3d(1, 2, 0.5).normalized());
+  long deep = 0, stopped = 0;
+  for (int step = 0; step < 4; ++step) {
+    Eigen::MatrixXf exact, fresh, hinted;
+    std::vector<Eigen::Vector3f> fresh_w, hinted_w;
+    cones.Angles(axes, &exact, nullptr, &caps);
+    cones.Angles(axes, &fresh, &fresh_w, &caps, nullptr, CapSides::kBoth);
+    cones.Angles(axes, &hinted, &hinted_w, &caps, &hints, CapSides::kBoth);
+    for (size_t p = 0; p < points.size(); ++p)
+      for (size_t a = 0; a < axes.size(); ++a) {
+        const size_t i = p * axes.size() + a;
+        const double truth = SignedAngleBruteForce(trees, points[p], axes[a]);
+        EXPECT_LE(hints.floor[i], truth + 1e-5);
+        const float e = exact(p, a);
+        if (e > -caps[a] + 1e-5f) {
+          ASSERT_NEAR(fresh(p, a), e, 1e-5) << "step " << step << " point " << p << " axis " << a;
+          ASSERT_NEAR(hinted(p, a), e, 1e-5) << "step " << step << " point " << p << " axis " << a;
+          continue;
+        }
+        ++deep;
+        for (const auto& [theta, w] : {std::pair{fresh(p, a), fresh_w[i]}, std::pair{hinted(p, a), hinted_w[i]}}) {
+          EXPECT_LE(theta, -caps[a] + 1e-5f);
+          EXPECT_GE(theta, e - 1e-5f);
+          // Some leaf's theta, and the witness points at that leaf's centre.
+          double nearest = 1e9;
+          for (const SphereTree& one : leaves) {
+            const Eigen::Vector3d u = (one.nodes[0].centre - points[p]).normalized();
+            if ((u.cast<float>() - w).norm() < 1e-4f)
+              nearest = std::min(nearest, std::abs(SignedAngleBruteForce({one}, points[p], axes[a]) - theta));
+          }
+          EXPECT_LT(nearest, 1e-5) << "step " << step << " point " << p << " axis " << a;
+          stopped += theta > e + 1e-4f;
+        }
+      }
+    for (auto& a : axes) a = turn * a;
+  }
+  EXPECT_GT(deep, 50) << stopped;
+  EXPECT_GT(stopped, 5) << deep;  // the early stop does happen
+}
+
 // A range of the prepared points gives those rows of the whole call.
 TEST(Ssdf, AnglesOfARangeAreThoseRows) {
   const auto trees = TestTrees(23);
