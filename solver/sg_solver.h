@@ -219,8 +219,10 @@ struct SgSolverSummary {
 // whose best held-out error is `best` against the other's other_best stops
 // when it trails 5x after two steps or 2x after four; once both paths have
 // ended (paths_ended), when it trails by more than 8 %: only the leader gets
-// the grid search and the final refinement.
-bool BounceRaceDrops(size_t steps, size_t other_steps, double best, double other_best, bool paths_ended = false);
+// the grid search and the final refinement. The model without the bounce
+// (direct) also stops when it trails by 15 % after four steps.
+bool BounceRaceDrops(size_t steps, size_t other_steps, double best, double other_best, bool paths_ended = false,
+                     bool direct = false);
 
 // The models (without, with the bounce) the restarts after the first fit,
 // from those still in the first restart's race at its end (first_racing):

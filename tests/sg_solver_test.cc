@@ -524,8 +524,9 @@ TEST(SgSolver, PathOrdersLobesByBackwardElimination) {
   }
 }
 
-// A clear loser stops after two steps, a close one only after four at 2x;
-// neither before the other model has taken as many steps.
+// A clear loser stops after two steps, a close one only after four at 2x
+// (1.15x for the model without the bounce); neither before the other model
+// has taken as many steps.
 TEST(SgSolver, BounceRaceDropsOnlyAClearLoser) {
   EXPECT_FALSE(BounceRaceDrops(1, 1, 100.0, 1.0));
   EXPECT_TRUE(BounceRaceDrops(2, 2, 5.1, 1.0));
@@ -540,6 +541,13 @@ TEST(SgSolver, BounceRaceDropsOnlyAClearLoser) {
   EXPECT_TRUE(BounceRaceDrops(6, 9, 1.09, 1.0, /*paths_ended=*/true));
   EXPECT_FALSE(BounceRaceDrops(6, 9, 1.07, 1.0, /*paths_ended=*/true));
   EXPECT_FALSE(BounceRaceDrops(6, 9, 1.0, 1.09, /*paths_ended=*/true));
+  // The model without the bounce stops 15 % behind after four steps; the
+  // one with it keeps the wide margins (its path falls late).
+  EXPECT_TRUE(BounceRaceDrops(4, 4, 1.16, 1.0, false, /*direct=*/true));
+  EXPECT_FALSE(BounceRaceDrops(4, 4, 1.16, 1.0, false, /*direct=*/false));
+  EXPECT_FALSE(BounceRaceDrops(4, 4, 1.14, 1.0, false, /*direct=*/true));
+  EXPECT_FALSE(BounceRaceDrops(3, 3, 1.9, 1.0, false, /*direct=*/true));
+  EXPECT_FALSE(BounceRaceDrops(4, 3, 1.9, 1.0, false, /*direct=*/true));
 }
 
 // The later restarts fit the model with the bounce whatever the first race
