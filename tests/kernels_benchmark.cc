@@ -65,7 +65,8 @@ BENCHMARK(BM_PreparedCones)->Args({16384, 8})->Unit(benchmark::kMillisecond);
 
 // Levenberg-Marquardt's searches: the same 8 axes turned by 0.01 rad per
 // evaluation, theta capped where a lobe of sharpness ~100 saturates, without
-// (hints = 0) and with (1) the last evaluation's hints (OccluderCones::AngleHints).
+// (hints = 0) and with (1) the last evaluation's hints (OccluderCones::AngleHints),
+// capped above only (sides = 0) or both ways (1: CapSides::kBoth, the solver's).
 void BM_PreparedConesLm(benchmark::State& state) {
   const OccluderCones cones({TorusTree()}, PlanePoints(static_cast<int>(state.range(0))));
   std::vector<Eigen::Vector3d> axes = Axes(8);
@@ -75,12 +76,17 @@ void BM_PreparedConesLm(benchmark::State& state) {
   Eigen::MatrixXf theta;
   std::vector<Eigen::Vector3f> witness;
   for (auto _ : state) {
-    cones.Angles(axes, &theta, &witness, &caps, state.range(1) ? &hints : nullptr);
+    cones.Angles(axes, &theta, &witness, &caps, state.range(1) ? &hints : nullptr,
+                 state.range(2) ? CapSides::kBoth : CapSides::kAbove);
     for (auto& a : axes) a = turn * a;
   }
   state.SetItemsProcessed(state.iterations() * cones.size() * axes.size());
 }
-BENCHMARK(BM_PreparedConesLm)->Args({16384, 0})->Args({16384, 1})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_PreparedConesLm)
+    ->Args({16384, 0, 0})
+    ->Args({16384, 1, 0})
+    ->Args({16384, 1, 1})
+    ->Unit(benchmark::kMillisecond);
 
 // Closed-form render of plane points under an SG lighting (sg model).
 void BM_RenderShadowPlane(benchmark::State& state) {
