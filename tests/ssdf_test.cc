@@ -76,6 +76,16 @@ std::vector<Eigen::Vector3d> TestPoints(std::mt19937_64& rng, int n) {
   return p;
 }
 
+// Each non-empty leaf of the trees as a tree of its own: the brute force's
+// theta of one is that leaf's.
+std::vector<SphereTree> LeafTrees(const std::vector<SphereTree>& trees) {
+  std::vector<SphereTree> leaves;
+  for (const SphereTree& t : trees)
+    for (size_t i = t.LevelBegin(t.levels - 1); i < t.nodes.size(); ++i)
+      if (!t.nodes[i].empty()) leaves.push_back({1, t.branching, {t.nodes[i]}});
+  return leaves;
+}
+
 TEST(Ssdf, SingleSphereMatchesClosedForm) {
   SphereTree t;
   t.levels = 1;
@@ -231,17 +241,7 @@ TEST(Ssdf, HintsRivalBoundsTheOtherLeaves) {
   std::vector<Eigen::Vector3d> axes = {Eigen::Vector3d(0.3, 0.1, 1).normalized(),
                                        Eigen::Vector3d(-0.5, 0.4, 0.8).normalized()};
   const std::vector<float> caps = {0.3f, 0.3f};
-  // Each leaf as a tree of its own: the brute force's theta of that leaf.
-  std::vector<SphereTree> leaves;
-  for (const SphereTree& t : trees)
-    for (size_t i = t.LevelBegin(t.levels - 1); i < t.nodes.size(); ++i) {
-      if (t.nodes[i].empty()) continue;
-      SphereTree one;
-      one.levels = 1;
-      one.branching = t.branching;
-      one.nodes = {t.nodes[i]};
-      leaves.push_back(one);
-    }
+  const std::vector<SphereTree> leaves = LeafTrees(trees);
   OccluderCones::AngleHints hints;
   const Eigen::AngleAxisd turn(0.003, Eigen::Vector3d(1, 2, 0.5).normalized());
   long found = 0, held = 0;
@@ -285,10 +285,7 @@ TEST(Ssdf, BothSidedCapsStopAtADeepLeaf) {
   std::vector<Eigen::Vector3d> axes = {Eigen::Vector3d(0.3, 0.1, 1).normalized(),
                                        Eigen::Vector3d(-0.5, 0.4, 0.8).normalized(), Eigen::Vector3d(1, -1, 0.3)};
   const std::vector<float> caps = {0.02f, 0.1f, 0.05f};
-  std::vector<SphereTree> leaves;  // each leaf as a tree of its own
-  for (const SphereTree& t : trees)
-    for (size_t i = t.LevelBegin(t.levels - 1); i < t.nodes.size(); ++i)
-      if (!t.nodes[i].empty()) leaves.push_back({1, t.branching, {t.nodes[i]}});
+  const std::vector<SphereTree> leaves = LeafTrees(trees);
   OccluderCones::AngleHints hints;
   const Eigen::AngleAxisd turn(0.01, Eigen::Vector3d(1, 2, 0.5).normalized());
   long deep = 0, stopped = 0;
