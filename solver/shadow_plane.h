@@ -89,9 +89,8 @@ std::vector<float> OccluderConeCosines(const std::vector<SphereTree>& trees, con
 // The theta beyond which sigmoid(k(lambda') theta) is 1 (and its derivative 0)
 // to double precision, and below minus which it is 0: no occluder search
 // needs to look further (ShadeLobe's value there no longer depends on theta).
-// A caller
-// whose shading is float may pass a lower saturation (z at which the sigmoid
-// is within an ulp of 1 in float).
+// A caller whose shading is float may pass a lower saturation (z at which the
+// sigmoid is within an ulp of 1 in float).
 float VisibilityCap(const ProductLobe& product, double saturation = kSigmoidSaturation);
 
 // Which shading the model uses: the paper's (cosine as one SG, plain sigmoid
