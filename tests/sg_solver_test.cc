@@ -524,6 +524,14 @@ TEST(SgSolver, PathOrdersLobesByBackwardElimination) {
   }
 }
 
+// The budgets' grid search of the strongest shadow (README, stop 43): `fast`
+// runs none, `balanced` and `best` one round.
+TEST(SgSolver, FastBudgetRunsNoGridSearch) {
+  EXPECT_EQ(SgSolverOptions::Budget("fast").scan_rounds, 0);
+  EXPECT_EQ(SgSolverOptions::Budget("balanced").scan_rounds, 1);
+  EXPECT_EQ(SgSolverOptions::Budget("best").scan_rounds, 1);
+}
+
 // A clear loser stops after two steps, a close one only after four at 2x
 // (1.15x for the model without the bounce); neither before the other model
 // has taken as many steps.
