@@ -82,6 +82,7 @@ bool SgSolverOptions::IsValid(std::string* error) const {
   if (path_pairs_from < 0) return fail("path_pairs_from must be >= 0");
   for (double f : pool_sharpness)
     if (!(f > 0) || !std::isfinite(f)) return fail("pool_sharpness factors must be positive");
+  if (!(pool_sky_basis >= 0) || !std::isfinite(pool_sky_basis)) return fail("pool_sky_basis must be >= 0");
   if (!(bounce_form_tolerance >= 0 && bounce_form_tolerance < 1)) return fail("bounce_form_tolerance must be in [0, 1)");
   return true;
 }
@@ -771,10 +772,32 @@ FitResult CarryFit(const FitResult& direct, const FitData& d, const ShadowPlaneM
   return r;
 }
 
+// The sky basis the pool offers (pool_sky_basis): lobes of that sharpness
+// about the plane's normal and about six axes 60 degrees from it, every 60
+// degrees of azimuth. Blended by NNLS they make a sky brighter to one side.
+std::vector<SgLobe> SkyBasisLobes(const Eigen::Vector3d& plane_normal, double sharpness) {
+  const Eigen::Vector3d n = plane_normal.normalized();
+  const Eigen::Vector3d t1 = n.unitOrthogonal(), t2 = n.cross(t1);
+  std::vector<SgLobe> lobes;
+  SgLobe l;
+  l.sharpness = sharpness;
+  l.axis = n;
+  lobes.push_back(l);
+  constexpr int kAzimuths = 6;
+  const double tilt = M_PI / 3;
+  for (int a = 0; a < kAzimuths; ++a) {
+    const double phi = 2 * M_PI * a / kAzimuths;
+    l.axis = (std::cos(tilt) * n + std::sin(tilt) * (std::cos(phi) * t1 + std::sin(phi) * t2)).normalized();
+    lobes.push_back(l);
+  }
+  return lobes;
+}
+
 // Every lobe of the fits, then each again at o.pool_sharpness's multiples
 // of its sharpness (within the refinement's bounds; a copy the bounds make
-// equal to its lobe is left out), and with o.pool_sky_lobe the flattest
-// lobe the refinement allows, about the plane's normal.
+// equal to its lobe is left out), with o.pool_sky_lobe the flattest lobe
+// the refinement allows, about the plane's normal, and with
+// o.pool_sky_basis the sky basis (SkyBasisLobes).
 std::vector<SgLobe> PooledLobes(const std::vector<SgLighting>& fits, const SgSolverOptions& o,
                                 const Eigen::Vector3d& plane_normal) {
   std::vector<SgLobe> lobes;
@@ -793,6 +816,8 @@ std::vector<SgLobe> PooledLobes(const std::vector<SgLighting>& fits, const SgSol
     sky.sharpness = bounds.min_sharpness;
     lobes.push_back(sky);
   }
+  if (o.pool_sky_basis > 0 && !lobes.empty())
+    for (const SgLobe& l : SkyBasisLobes(plane_normal, o.pool_sky_basis)) lobes.push_back(l);
   return lobes;
 }
 

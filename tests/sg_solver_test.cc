@@ -290,6 +290,7 @@ TEST(SgSolver, PoolJoinsPartialFitsAndKeepsEachLightOnce) {
   SgSolverOptions o = SgSolverOptions::Budget("balanced");
   o.pool_sharpness = {};  // the fits' own lobes (PoolBlendsSharpnessCopies: with copies)
   o.pool_sky_lobe = false;  // PoolOffersAnEvenSky
+  o.pool_sky_basis = 0;     // PoolOffersASkyBrighterToOneSide
   SgLighting sun = truth, rest = truth;
   sun.lobes = {truth.lobes[0]};
   rest.lobes = {truth.lobes[1], truth.lobes[2]};
@@ -336,6 +337,7 @@ TEST(SgSolver, PoolOffersAnEvenSky) {
   SgSolverOptions o = SgSolverOptions::Budget("balanced");
   o.pool_sharpness = {};
   o.pool_sky_lobe = false;
+  o.pool_sky_basis = 0;  // the even sky alone
   const SgLighting without = PoolLobes(model, weight, targets, {sun}, model, targets, o);
   ASSERT_EQ(without.lobes.size(), 1u);
   o.pool_sky_lobe = true;
@@ -355,6 +357,40 @@ TEST(SgSolver, PoolOffersAnEvenSky) {
   EXPECT_TRUE(PoolLobes(model, weight, targets, {}, model, targets, o).lobes.empty());
 }
 
+// A sun over a sky brighter to one side (a broad lobe off the basis' axes),
+// and a fit that found the sun only: the even sky alone leaves the sky's
+// slope; the sky basis (pool_sky_basis) fits it.
+TEST(SgSolver, PoolOffersASkyBrighterToOneSide) {
+  const ShadowPlaneModel model = SgTestModel(48);
+  SgLighting truth;
+  truth.lobes.push_back({Eigen::Vector3d(0.4, 0.3, 0.87).normalized(), 60.0, Eigen::Vector3d(300, 280, 250)});
+  truth.lobes.push_back({Eigen::Vector3d(-0.5, 0.2, 0.6).normalized(), 0.8, Eigen::Vector3d(2.0, 2.5, 3.0)});
+  const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, truth);
+  const std::vector<double> weight(model.points.size(), 1.0);
+  SgLighting sun = truth;
+  sun.lobes = {truth.lobes[0]};
+  SgSolverOptions o = SgSolverOptions::Budget("balanced");
+  o.pool_sharpness = {};
+  o.pool_sky_basis = 0;
+  const SgLighting even = PoolLobes(model, weight, targets, {sun}, model, targets, o);
+  o.pool_sky_basis = 0.5;
+  const SgLighting basis = PoolLobes(model, weight, targets, {sun}, model, targets, o);
+  const double psnr_even = Psnr(RenderShadowPlane(model, even), targets);
+  const double psnr_basis = Psnr(RenderShadowPlane(model, basis), targets);
+  // Here 36.3 and 41.6 dB: the basis' 0.5 is not the sky's 0.8.
+  EXPECT_GT(psnr_basis, psnr_even + 3) << psnr_even;
+  EXPECT_GT(psnr_basis, 40.0);
+  // The basis' lobes are the broad ones offered: the sun keeps its own.
+  int broad = 0;
+  for (const SgLobe& l : basis.lobes) broad += l.sharpness == 0.5;
+  EXPECT_GE(broad, 2);
+  EXPECT_LE(basis.lobes.size(), 9u);
+  o.pool_sky_basis = -1;
+  std::string error;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("pool_sky_basis"), std::string::npos);
+}
+
 // A fit whose lobe has the right axis but not the right sharpness: the pool
 // offers it at other sharpness values too, and NNLS takes the one that fits.
 TEST(SgSolver, PoolBlendsSharpnessCopies) {
@@ -368,6 +404,7 @@ TEST(SgSolver, PoolBlendsSharpnessCopies) {
   SgSolverOptions o = SgSolverOptions::Budget("balanced");
   o.pool_sharpness = {};
   o.pool_sky_lobe = false;  // PoolOffersAnEvenSky
+  o.pool_sky_basis = 0;     // PoolOffersASkyBrighterToOneSide
   const SgLighting own = PoolLobes(model, weight, targets, {fit}, model, targets, o);
   ASSERT_EQ(own.lobes.size(), 1u);
   EXPECT_EQ(own.lobes[0].sharpness, 40);
@@ -410,6 +447,7 @@ TEST(SgSolver, PoolWithTheBounceKeepsEachLobesOwnBounce) {
   SgSolverOptions o = SgSolverOptions::Budget("balanced");
   o.pool_sharpness = {};
   o.pool_sky_lobe = false;
+  o.pool_sky_basis = 0;
   std::vector<double> path;
   const SgLighting pooled = PoolLobes(model, weight, targets, {fit}, model, targets, o, &path);
   ASSERT_EQ(path.size(), 4u);
