@@ -321,19 +321,32 @@ TEST(SgSolver, PoolJoinsPartialFitsAndKeepsEachLightOnce) {
   EXPECT_TRUE(PoolLobes(model, weight, targets, {}, model, targets, o).lobes.empty());
 }
 
-// A sun over an almost even sky, and a fit that found the sun only: the
-// pool offers the flattest lobe the refinement allows about the plane's
-// normal, and NNLS gives it the sky's light.
+// A sun over a sky lobe on the closed-form test plane, and a fit that
+// found the sun only.
+struct SunOverSky {
+  ShadowPlaneModel model = SgTestModel(48);
+  SgLighting truth, sun;
+  std::vector<Eigen::Vector3f> targets;
+  std::vector<double> weight;
+};
+
+SunOverSky MakeSunOverSky(const Eigen::Vector3d& sky_axis, double sky_sharpness) {
+  SunOverSky s;
+  s.truth.lobes.push_back({Eigen::Vector3d(0.4, 0.3, 0.87).normalized(), 60.0, Eigen::Vector3d(300, 280, 250)});
+  s.truth.lobes.push_back({sky_axis.normalized(), sky_sharpness, Eigen::Vector3d(2.0, 2.5, 3.0)});
+  s.targets = RenderShadowPlane(s.model, s.truth);
+  s.weight.assign(s.model.points.size(), 1.0);
+  s.sun.lobes = {s.truth.lobes[0]};
+  return s;
+}
+
+// A sun over an almost even sky: the pool offers the flattest lobe the
+// refinement allows about the plane's normal, and NNLS gives it the sky's
+// light.
 TEST(SgSolver, PoolOffersAnEvenSky) {
-  const ShadowPlaneModel model = SgTestModel(48);
   const RefineLmOptions bounds;
-  SgLighting truth;
-  truth.lobes.push_back({Eigen::Vector3d(0.4, 0.3, 0.87).normalized(), 60.0, Eigen::Vector3d(300, 280, 250)});
-  truth.lobes.push_back({model.normal.normalized(), bounds.min_sharpness, Eigen::Vector3d(2.0, 2.5, 3.0)});
-  const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, truth);
-  const std::vector<double> weight(model.points.size(), 1.0);
-  SgLighting sun = truth;
-  sun.lobes = {truth.lobes[0]};
+  const SunOverSky scene = MakeSunOverSky(SgTestModel(48).normal, bounds.min_sharpness);
+  const auto& [model, truth, sun, targets, weight] = scene;
   SgSolverOptions o = SgSolverOptions::Budget("balanced");
   o.pool_sharpness = {};
   o.pool_sky_lobe = false;
@@ -357,18 +370,12 @@ TEST(SgSolver, PoolOffersAnEvenSky) {
   EXPECT_TRUE(PoolLobes(model, weight, targets, {}, model, targets, o).lobes.empty());
 }
 
-// A sun over a sky brighter to one side (a broad lobe off the basis' axes),
-// and a fit that found the sun only: the even sky alone leaves the sky's
-// slope; the sky basis (pool_sky_basis) fits it.
+// A sun over a sky brighter to one side (a broad lobe off the basis' axes):
+// the even sky alone leaves the sky's slope; the sky basis
+// (pool_sky_basis) fits it.
 TEST(SgSolver, PoolOffersASkyBrighterToOneSide) {
-  const ShadowPlaneModel model = SgTestModel(48);
-  SgLighting truth;
-  truth.lobes.push_back({Eigen::Vector3d(0.4, 0.3, 0.87).normalized(), 60.0, Eigen::Vector3d(300, 280, 250)});
-  truth.lobes.push_back({Eigen::Vector3d(-0.5, 0.2, 0.6).normalized(), 0.8, Eigen::Vector3d(2.0, 2.5, 3.0)});
-  const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, truth);
-  const std::vector<double> weight(model.points.size(), 1.0);
-  SgLighting sun = truth;
-  sun.lobes = {truth.lobes[0]};
+  const SunOverSky scene = MakeSunOverSky(Eigen::Vector3d(-0.5, 0.2, 0.6), 0.8);
+  const auto& [model, truth, sun, targets, weight] = scene;
   SgSolverOptions o = SgSolverOptions::Budget("balanced");
   o.pool_sharpness = {};
   o.pool_sky_basis = 0;
