@@ -119,6 +119,7 @@ LightingEstimate SolveWithSg(Scene& scene, const fs::path& scene_dir, const Plan
                    {"render_seconds", render_clock.Seconds()},
                    {"size_tolerance", so.size_tolerance},
                    {"heldout_mse_path", summary.heldout_mse},
+                   {"heldout_mse_path_judged", summary.path_judged},
                    {"fit_mse_selected", summary.fit_mse_selected},
                    {"fit_mse_refined", summary.fit_mse_refined},
                    {"refine_iterations", summary.refine_iterations},
