@@ -1276,8 +1276,9 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
       }
       // Several fits' pool: its leading set chosen on the judging set
       // (the held-out set's 2000 pixels are too few to tell the sets apart).
-      if (!one && o.pool_on_judge_set && !judge.ready) judge.Build(model, targets, ho, fitted, any_bounce, o);
-      const bool on_judge = !one && o.pool_on_judge_set && !judge.pixels.empty();
+      const bool want_judge = !one && o.pool_on_judge_set;
+      if (want_judge && !judge.ready) judge.Build(model, targets, ho, fitted, any_bounce, o);
+      const bool on_judge = want_judge && !judge.pixels.empty();
       FitResult pool = PoolFits(sets, has_bounce(v), members, hold_for(v), hold_targets,
                                 on_judge ? judge.For(has_bounce(v)) : hold_for(v),
                                 on_judge ? judge.targets : hold_targets, o);

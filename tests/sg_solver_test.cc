@@ -290,7 +290,6 @@ TEST(SgSolver, PoolChoosesItsLeadingSetOnTheJudgingSet) {
   o.fit_pixels = 600;
   o.holdout_pixels = 100;
   o.judge_pixels = 4096;
-  o.seed = 5;
   SgSolverOptions held = o;
   held.pool_on_judge_set = false;
   double signal = 0;
@@ -307,8 +306,9 @@ TEST(SgSolver, PoolChoosesItsLeadingSetOnTheJudgingSet) {
     // Same draws, same restarts; only the pool (the fourth fit) differs.
     for (size_t r = 0; r < 3; ++r) EXPECT_DOUBLE_EQ(s.restart_judged_mse[r], h.restart_judged_mse[r]);
     // Its leading set is within size_tolerance of the best on the judging
-    // set, so no worse there than the one the held-out set chose.
-    // (Errors within 1e-6 of the signal's mean square count as equal.)
+    // set, so no worse there than the one the held-out set chose. (The
+    // slack covers the pool's floor, 1e-7 of the judged pixels' mean
+    // square, and rounding between the pool's path and the render.)
     EXPECT_LE(s.restart_judged_mse[3], h.restart_judged_mse[3] * (1 + o.size_tolerance) + 1e-6 * signal) << seed;
     judged_gain += std::log(h.restart_judged_mse[3] / s.restart_judged_mse[3]);
   }
