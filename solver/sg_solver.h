@@ -274,7 +274,7 @@ std::vector<SgLobe> OrderByElimination(const ShadowPlaneModel& model, const std:
 // reverse order of backward elimination on the model's points
 // (OrderByElimination), amplitudes by NNLS per channel there; of the leading
 // sets (up to options.pool_max_lobes), the smallest whose error on the hold
-// model's points is within size_tolerance of the best, or within 1e-7 of the
+// model's points is within size_tolerance of the best plus 1e-7 of their
 // mean squared signal (options.lobes > 0: the first that many). Lobes
 // left at zero amplitude are dropped. The restarts' local minima differ in
 // where they put lobes that the shadows barely pin down; the pool lets them
