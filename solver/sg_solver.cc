@@ -26,7 +26,7 @@ SgSolverOptions SgSolverOptions::Budget(const std::string& name) {
   o.fit_pixels = 6000;
   o.holdout_pixels = 2000;
   o.max_lobes = 16;
-  o.path_refine_iterations = 8;
+  o.path_refine_iterations = 6;
   o.dictionary_axes = 160;
   o.sharpness = {0.5, 4, 15, 60, 250};
   o.refine_iterations = 8;
@@ -85,6 +85,8 @@ bool SgSolverOptions::IsValid(std::string* error) const {
   if (!(pool_sky_basis >= 0) || !std::isfinite(pool_sky_basis)) return fail("pool_sky_basis must be >= 0");
   if (pool_max_lobes < 1) return fail("pool_max_lobes must be >= 1");
   if (!(bounce_form_tolerance >= 0 && bounce_form_tolerance < 1)) return fail("bounce_form_tolerance must be in [0, 1)");
+  if (!(path_warm_radius >= 0) || !std::isfinite(path_warm_radius)) return fail("path_warm_radius must be >= 0");
+  if (scan_refine_iterations < 0) return fail("scan_refine_iterations must be >= 0");
   return true;
 }
 
@@ -311,13 +313,16 @@ std::vector<SgLobe> MergeLobes(std::vector<SgLobe> lobes, double overlap) {
 }
 
 // Levenberg-Marquardt of every lobe of *lighting over the points of `model`;
-// drops lobes whose amplitude reaches 0. Returns the iterations run.
+// drops lobes whose amplitude reaches 0. Returns LM's summary.
 // hints (optional, one per lobe, in and out): the lobes' visibility search
 // hints over the model's points (OccluderCones::AngleHints).
-int RefineLobes(const ShadowPlaneModel& model, const std::vector<double>& weight,
-                const std::vector<Eigen::Vector3f>& targets, int iterations, SgLighting* lighting,
-                const ProgressFn* progress, std::vector<OccluderCones::AngleHints>* hints = nullptr) {
-  if (iterations <= 0 || lighting->lobes.empty()) return 0;
+// radius (optional, in and out): where > 0, the trust radius to start from
+// (at most Ceres' default); gets the radius LM ended at.
+RefineLmSummary RefineLobes(const ShadowPlaneModel& model, const std::vector<double>& weight,
+                            const std::vector<Eigen::Vector3f>& targets, int iterations, SgLighting* lighting,
+                            const ProgressFn* progress, std::vector<OccluderCones::AngleHints>* hints = nullptr,
+                            double* radius = nullptr) {
+  if (iterations <= 0 || lighting->lobes.empty()) return {};
   SHADOWSG_CHECK(!hints || hints->size() == lighting->lobes.size());
   const int L = static_cast<int>(lighting->lobes.size());
   // The bounce's sharpness column pays only under exact visibility (sg_refine_cost.h).
@@ -328,6 +333,7 @@ int RefineLobes(const ShadowPlaneModel& model, const std::vector<double>& weight
   lo.max_iterations = iterations;
   lo.min_sharpness = kMinSharpness;
   lo.max_sharpness = kMaxSharpness;
+  if (radius && *radius > 0) lo.initial_radius = std::min(lo.initial_radius, *radius);
   std::function<void(int, double)> report;
   if (progress)
     report = [&](int it, double c) {
@@ -336,6 +342,7 @@ int RefineLobes(const ShadowPlaneModel& model, const std::vector<double>& weight
       Report(*progress, 0.5 + 0.5 * std::min(1.0, static_cast<double>(it) / iterations), status);
     };
   const RefineLmSummary s = RefineByLm(cost, &lighting->lobes, lo, report);
+  if (radius) *radius = s.radius;
   if (hints)
     for (int i = 0; i < L; ++i) (*hints)[i] = cost.Hints(i);
   // Lobes that light the plane by a negligible fraction even unoccluded
@@ -356,7 +363,7 @@ int RefineLobes(const ShadowPlaneModel& model, const std::vector<double>& weight
     }
   lighting->lobes = std::move(kept);
   if (hints) *hints = std::move(kept_hints);
-  return s.iterations;
+  return s;
 }
 
 // The per-channel least-squares system of lobe amplitudes for fixed axes and
@@ -562,6 +569,7 @@ struct FitRun {
   // Per lobe of `lighting`, its visibility search hints over the fit pixels:
   // the next path step's searches start from them.
   std::vector<OccluderCones::AngleHints> hints;
+  double radius = 0;       // LM's trust radius where the last path step ended (0: none yet)
   size_t next_merged = 0;  // merged lobes the size path has taken
   std::vector<SgLighting> path;
   std::vector<double> path_mse;
@@ -702,7 +710,12 @@ bool StepFit(FitRun* run, const SgSolverOptions& o) {
   if (fit_model.bounce) ResolveAmplitudes(fit_model, run->d->weight, run->d->targets, &lighting, &run->hints);
   // Lobes not yet in the model carry light the refinement must not miss:
   // the first ones absorb it, later ones give it back.
-  RefineLobes(fit_model, run->d->weight, run->d->targets, o.path_refine_iterations, &lighting, nullptr, &run->hints);
+  double radius = run->radius * o.path_warm_radius;
+  const RefineLmSummary lm = RefineLobes(fit_model, run->d->weight, run->d->targets, o.path_refine_iterations,
+                                         &lighting, nullptr, &run->hints, &radius);
+  run->radius = radius;
+  run->sum.path_lm_steps += lm.iterations;
+  run->sum.path_lm_refused += lm.iterations - lm.accepted;
   const double mse = WeightedMse(*run->hold_model, lighting, {}, *run->hold_targets);
   run->path.push_back(lighting);
   run->path_mse.push_back(mse);
@@ -742,7 +755,7 @@ FitResult FinishFit(FitRun&& run, double signal, const SgSolverOptions& o) {
   for (int round = 0; round < o.scan_rounds; ++round) {
     SgLighting moved = lighting;
     if (!ScanBrightestSharpLobe(fit_model, d.weight, d.targets, &moved).moved) break;
-    RefineLobes(fit_model, d.weight, d.targets, o.path_refine_iterations, &moved, nullptr);
+    RefineLobes(fit_model, d.weight, d.targets, o.scan_refine_iterations, &moved, nullptr);
     const double h = WeightedMse(*run.hold_model, moved, {}, *run.hold_targets);
     if (!(h < held)) break;
     lighting = std::move(moved);
@@ -753,7 +766,8 @@ FitResult FinishFit(FitRun&& run, double signal, const SgSolverOptions& o) {
 
   // Final joint refinement of the chosen model.
   const auto t0 = Clock::now();
-  sum.refine_iterations = RefineLobes(fit_model, d.weight, d.targets, o.refine_iterations, &lighting, &run.progress);
+  sum.refine_iterations =
+      RefineLobes(fit_model, d.weight, d.targets, o.refine_iterations, &lighting, &run.progress).iterations;
   sum.refine_seconds = Since(t0);
   sum.fit_mse_refined = WeightedMse(fit_model, lighting, d.weight, d.targets);
   sum.invalid_lobes_removed = RemoveInvalidLobes(&lighting);
@@ -771,6 +785,9 @@ FitResult CarryFit(const FitResult& direct, const FitData& d, const ShadowPlaneM
   const auto t0 = Clock::now();
   FitResult r;
   r.sum = direct.sum;
+  // The direct fit's own parts are counted with it (SolveSg sums them over the fits).
+  r.sum.theta_seconds = r.sum.select_seconds = 0;
+  r.sum.path_lm_steps = r.sum.path_lm_refused = 0;
   r.lighting = CarryIntoBounce(d.model, d.weight, d.targets, direct.lighting, o);
   r.sum.refine_iterations = o.refine_iterations;
   r.sum.fit_mse_refined = WeightedMse(d.model, r.lighting, d.weight, d.targets);
@@ -965,6 +982,7 @@ FitResult PoolFits(const std::vector<FitData>& sets, bool bounce, const std::vec
   FitResult r;
   r.sum = fits[0].sum;
   r.sum.theta_seconds = r.sum.select_seconds = r.sum.refine_seconds = 0;  // the restarts' own are counted
+  r.sum.path_lm_steps = r.sum.path_lm_refused = 0;
   r.sum.scan_moves = 0;
   r.sum.refine_iterations = 0;
   r.lighting =
@@ -1342,11 +1360,14 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
 
   SgSolverSummary sum = win.sum;
   sum.theta_seconds = sum.select_seconds = sum.refine_seconds = 0;
+  sum.path_lm_steps = sum.path_lm_refused = 0;
   for (size_t v = 0; v < nv; ++v)
     for (const FitResult& f : fits[v]) {
       sum.theta_seconds += f.sum.theta_seconds;
       sum.select_seconds += f.sum.select_seconds;
       sum.refine_seconds += f.sum.refine_seconds;
+      sum.path_lm_steps += f.sum.path_lm_steps;
+      sum.path_lm_refused += f.sum.path_lm_refused;
     }
   for (const FitResult& f : fits[v_best]) sum.restart_heldout_mse.push_back(f.heldout_mse);
   if (!judge.pixels.empty()) sum.restart_judged_mse = score[v_best];

@@ -20,7 +20,8 @@
 //    (axes on the sphere, log-sharpness, non-negative amplitudes;
 //    solver/sg_refine_cost.h, solver/sg_refine_lm.h; each lobe's occluder
 //    searches start from what its last one learnt, OccluderCones::AngleHints,
-//    for as long as the lobe is on the path). The smallest model within `size_tolerance` of the
+//    for as long as the lobe is on the path, and LM from about the trust
+//    radius the last step ended at, path_warm_radius). The smallest model within `size_tolerance` of the
 //    best held-out error is kept ("no more lobes than the scene needs") and
 //    refined further. (A path from large to small was tried: worse on the
 //    closed-form three-lobe test, 34 dB against 98.)
@@ -98,7 +99,19 @@ struct SgSolverOptions {
   double merge_overlap = 1.0;      // merge atoms closer than this many lobe widths
   double improvement = 0.01;       // a held-out drop smaller than this (relative) is no progress
   int patience = 3;                // stop the size path after this many steps without progress
-  int path_refine_iterations = 8;  // LM iterations after each lobe added on the path
+  int path_refine_iterations = 6;  // LM iterations after each lobe added on the path
+  // Each path step's LM starts at the trust radius where the last step's
+  // ended, times this (at most Ceres' default, 1e4; 0: always from 1e4).
+  // From 1e4 the later steps refused their first 3-4 steps of 8 (synth_env,
+  // fast): the radius fell 1e4 -> 5e3 -> 1.25e3 -> 156 on every step. With
+  // it and 6 iterations instead of 8, fast, 10 seeds, interleaved: three
+  // suns 33.18 -> 33.29 dB median (spread 0.68 -> 0.24), the one sun's
+  // spread 0.58 -> 0.26, the interior's 0.46 -> 0.29 (+0.07 dB), the
+  // environment map 2.06 -> 1.84 s; 0.82-1.01x the time (README). With 8
+  // iterations it gained less and took 1.01-1.14x the time.
+  double path_warm_radius = 4;
+  // LM iterations after a grid search moved the strongest lobe (scan_rounds).
+  int scan_refine_iterations = 8;
   // Once the path has taken this many merged lobes, each step takes the next
   // two (0: always one). A step's refinement costs about its lobe count, and
   // the size chosen past this point moves the error little: on the
@@ -216,6 +229,8 @@ struct SgSolverSummary {
   double fit_mse_selected = 0;      // weighted fit MSE before refinement
   double fit_mse_refined = 0;       // and after
   int refine_iterations = 0;
+  int path_lm_steps = 0;            // LM steps tried on the size paths, summed over the fits
+  int path_lm_refused = 0;          // of which refused (path_warm_radius)
   int scan_moves = 0;               // grid-search moves of the brightest sharp lobe that were kept
   int invalid_lobes_removed = 0;    // non-finite lobes dropped by the last guard (0 unless a bug or a degenerate fit)
   // Final held-out MSE of each restart, then of their pool where there is one (pool_restarts).

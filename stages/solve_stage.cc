@@ -123,6 +123,8 @@ LightingEstimate SolveWithSg(Scene& scene, const fs::path& scene_dir, const Plan
                    {"fit_mse_selected", summary.fit_mse_selected},
                    {"fit_mse_refined", summary.fit_mse_refined},
                    {"refine_iterations", summary.refine_iterations},
+                   {"path_lm_steps", summary.path_lm_steps},
+                   {"path_lm_refused", summary.path_lm_refused},
                    {"invalid_lobes_removed", summary.invalid_lobes_removed},
                    {"scan_moves", summary.scan_moves},
                    {"restart_heldout_mse", summary.restart_heldout_mse},
