@@ -1271,17 +1271,23 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   // takes its place where its held-out error is lower: no judging set is
   // built for it (0.2 s on pub_torus_sunrise, fast).
   std::vector<char> pooled(nv, 0);
-  // The judging set (built where it is first needed).
-  JudgeSet judge;
-  const bool any_bounce = model.bounce && !fits[nv - 1].empty();
   // The direct model's finished fits before its own pool joins them.
   const size_t direct_fits = fits[0].size();
+  // The model with the bounce out of the race in every restart it entered
+  // (fast: one restart) still pools the direct model's fits
+  // (pool_direct_into_bounce).
+  const bool from_direct = o.pool_restarts && o.pool_across_models && o.pool_direct_into_bounce && nv == 2 &&
+                           fits[1].empty() && direct_fits > 0 && o.lobes == 0;
+  // The judging set (built where it is first needed).
+  JudgeSet judge;
+  const bool any_bounce = model.bounce && (!fits[nv - 1].empty() || from_direct);
   int pooled_direct = 0;
   if (o.pool_restarts)
     for (size_t v = 0; v < nv; ++v) {
       const bool one = fits[v].size() == 1;
-      if (fits[v].empty() || (one && (o.pool_sharpness.empty() || o.lobes > 0))) continue;
-      Report(progress, 0.99, one ? "pooling the fit's lobes" : "pooling the restarts");
+      const bool own = !fits[v].empty();  // else the direct model's fits pooled with the bounce (from_direct)
+      if ((!own && !(from_direct && has_bounce(v))) || (one && (o.pool_sharpness.empty() || o.lobes > 0))) continue;
+      Report(progress, 0.99, one ? "pooling the fit's lobes" : own ? "pooling the restarts" : "pooling the fit with the bounce");
       const auto t0 = Clock::now();
       // The model with the bounce pools the direct model's fits too
       // (pool_across_models): their lobes, amplitudes re-solved with the
@@ -1292,8 +1298,9 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
         members.insert(members.end(), fits[0].begin(), fits[0].begin() + static_cast<long>(direct_fits));
         pooled_direct = static_cast<int>(direct_fits);
       }
-      // Several fits' pool: its leading set chosen on the judging set
-      // (the held-out set's 2000 pixels are too few to tell the sets apart).
+      // Several fits' pool, or the direct fits' pool with the bounce (judged
+      // against them): its leading set chosen on the judging set (the
+      // held-out set's 2000 pixels are too few to tell the sets apart).
       const bool want_judge = !one && o.pool_on_judge_set;
       if (want_judge && !judge.ready) judge.Build(model, targets, ho, fitted, any_bounce, o);
       const bool on_judge = want_judge && !judge.pixels.empty();

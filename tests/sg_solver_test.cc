@@ -712,6 +712,45 @@ TEST(SgSolver, LaterRestartsFitTheFirstRacesSurvivors) {
   EXPECT_EQ(LaterRestartModels(Models{1, 1}, o), (Models{1, 1}));
 }
 
+// Where the model with the bounce leaves the race of fast's one restart,
+// the direct fit's lobes are still pooled with the bounce
+// (pool_direct_into_bounce) and judged against the direct fit on the
+// judging set. Without it the one finished fit is kept unjudged. Here the
+// model's bounce is 30 times what a white caster gives and the targets have
+// none, so the model with it falls far behind.
+TEST(SgSolver, DirectFitPooledWithTheBounceAfterItsModelLeftTheRace) {
+  ShadowPlaneModel direct = SgTestModel(32);
+  direct.normal = Eigen::Vector3d::UnitZ();
+  const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(direct, Cases()[1].truth);
+  ShadowPlaneModel model = direct;
+  testing::AddTestCasterBounce(&model, 30.0);
+  SgSolverOptions o = SgSolverOptions::Budget("fast");
+  ASSERT_EQ(o.restarts, 1);
+  o.fit_pixels = 400;
+  o.holdout_pixels = 200;
+  o.judge_pixels = 600;
+  SgSolverSummary off, on;
+  o.pool_direct_into_bounce = false;
+  const SgLighting a = SolveSg(model, targets, o, &off);
+  o.pool_direct_into_bounce = true;
+  const SgLighting b = SolveSg(model, targets, o, &on);
+  ASSERT_EQ(off.bounce_heldout_mse.size(), 2u);
+  std::printf("held-out mse without / with the bounce %.3e / %.3e; judged %zu fits on %d pixels, bounce chosen: %d\n",
+              off.bounce_heldout_mse[0], off.bounce_heldout_mse[1], on.restart_judged_mse.size(), on.judge_pixels,
+              on.bounce);
+  ASSERT_FALSE(off.bounce);
+  ASSERT_GT(off.bounce_heldout_mse[1], off.bounce_heldout_mse[0]);
+  EXPECT_EQ(off.pooled_direct_fits, 0);
+  EXPECT_EQ(off.judge_pixels, 0);  // one finished fit: nothing to judge
+  EXPECT_EQ(on.pooled_direct_fits, 1);
+  EXPECT_GT(on.judge_pixels, 0);
+  // The direct fit is the same either way, and still a candidate.
+  if (!on.bounce) {
+    ASSERT_EQ(a.lobes.size(), b.lobes.size());
+    for (size_t i = 0; i < a.lobes.size(); ++i) EXPECT_EQ(a.lobes[i].axis, b.lobes[i].axis);
+  }
+}
+
 // The dictionary's theta stops where every atom but the flattest is fully
 // visible: those atoms shade as with the full search (to an ulp), the flattest
 // ones nearly so, and the values there are lower bounds of theta.

@@ -39,7 +39,8 @@ inline ShadowPlaneModel TestPlaneModel(int grid, CosineModel cosine) {
 
 // The casters' bounce for the test plane: a white sphere mesh of about the
 // caster's size (the direct light's sphere tree and it need not agree).
-inline void AddTestCasterBounce(ShadowPlaneModel* model) {
+// albedo above 1 makes a bounce no real caster gives (a model that cannot fit).
+inline void AddTestCasterBounce(ShadowPlaneModel* model, double albedo = 0.9) {
   TriangleMesh ball = MakeIcosphere(0.3, 3);
   for (Eigen::Vector3d& v : ball.vertices) v += Eigen::Vector3d(0, 0, 0.301);
   RayCaster casters;
@@ -48,7 +49,7 @@ inline void AddTestCasterBounce(ShadowPlaneModel* model) {
   CasterBounceOptions o;
   o.patches = 64;
   model->bounce = std::make_shared<const CasterBounce>(std::vector<TriangleMesh>{ball},
-                                                       std::vector<Eigen::Vector3d>{Eigen::Vector3d::Constant(0.9)},
+                                                       std::vector<Eigen::Vector3d>{Eigen::Vector3d::Constant(albedo)},
                                                        casters, Eigen::Vector3d::Zero(), model->normal, o);
 }
 
