@@ -50,7 +50,9 @@
 //    fit is pooled the same way, its leading set chosen on the held-out
 //    set, and replaced by its pool where that has the lower held-out error. The
 //    bounce model's pool also holds the direct model's finished fits
-//    (pool_across_models).
+//    (pool_across_models), and where that model left the race in every
+//    restart it entered, the direct fits are pooled with the bounce all the
+//    same, judged against them (pool_direct_into_bounce).
 // 8. Where more than one fit finished (restarts, their pool, both racers),
 //    the winner is chosen on a judging set: the held-out pixels and more that
 //    no restart fitted (judge_pixels in all); the held-out set's 2000 pixels
