@@ -779,15 +779,20 @@ FitResult FinishFit(FitRun&& run, double signal, const SgSolverOptions& o) {
   return r;
 }
 
+// Zeroes the parts of a summary that SolveSg sums over the finished fits
+// (times, the path's LM steps), for a fit built from others' work.
+void ClearPartSums(SgSolverSummary* s) {
+  s->theta_seconds = s->select_seconds = s->refine_seconds = 0;
+  s->path_lm_steps = s->path_lm_refused = 0;
+}
+
 // The restart's direct fit carried into its bounce model (CarryIntoBounce).
 FitResult CarryFit(const FitResult& direct, const FitData& d, const ShadowPlaneModel& hold_model,
                    const std::vector<Eigen::Vector3f>& hold_targets, const SgSolverOptions& o) {
   const auto t0 = Clock::now();
   FitResult r;
   r.sum = direct.sum;
-  // The direct fit's own parts are counted with it (SolveSg sums them over the fits).
-  r.sum.theta_seconds = r.sum.select_seconds = 0;
-  r.sum.path_lm_steps = r.sum.path_lm_refused = 0;
+  ClearPartSums(&r.sum);  // the direct fit's own are counted with it
   r.lighting = CarryIntoBounce(d.model, d.weight, d.targets, direct.lighting, o);
   r.sum.refine_iterations = o.refine_iterations;
   r.sum.fit_mse_refined = WeightedMse(d.model, r.lighting, d.weight, d.targets);
@@ -981,8 +986,7 @@ FitResult PoolFits(const std::vector<FitData>& sets, bool bounce, const std::vec
                                     bounce ? &irradiance : nullptr));
   FitResult r;
   r.sum = fits[0].sum;
-  r.sum.theta_seconds = r.sum.select_seconds = r.sum.refine_seconds = 0;  // the restarts' own are counted
-  r.sum.path_lm_steps = r.sum.path_lm_refused = 0;
+  ClearPartSums(&r.sum);  // the restarts' own are counted
   r.sum.scan_moves = 0;
   r.sum.refine_iterations = 0;
   r.lighting =
@@ -1366,8 +1370,7 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   if (win.lighting.lobes.empty()) throw std::runtime_error("sg: no lobe lowers the error (is the plane lit at all?)");
 
   SgSolverSummary sum = win.sum;
-  sum.theta_seconds = sum.select_seconds = sum.refine_seconds = 0;
-  sum.path_lm_steps = sum.path_lm_refused = 0;
+  ClearPartSums(&sum);
   for (size_t v = 0; v < nv; ++v)
     for (const FitResult& f : fits[v]) {
       sum.theta_seconds += f.sum.theta_seconds;
