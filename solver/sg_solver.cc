@@ -11,7 +11,9 @@
 #include <omp.h>
 
 #include "calib/error.h"
+#include "solver/sg_lobe_system.h"
 #include "solver/sg_paper_solver.h"
+#include "solver/sg_pool.h"
 #include "solver/sg_lobe_scan.h"
 #include "solver/sg_refine_cost.h"
 #include "solver/sg_refine_lm.h"
@@ -106,13 +108,6 @@ constexpr double kMaxSharpness = 5000;
 // lobes that gain 100 dB on 110).
 constexpr double kNegligibleLight = 1e-4;
 constexpr double kSizeNoiseFloor = 1e-6;
-// The pool's leading sets are not refined further, so no smaller one is kept
-// for what refinement might add, and the judging set's 16000 pixels resolve
-// smaller differences than the held-out set's 2000: a floor 10x lower. On
-// pub_torus_sunsky (about 45 dB) 1e-6 is 3 % of the error, six times the
-// tolerance; with the pool chosen on the judging set it kept sets 2-3 %
-// worse there, -0.05 dB on most seeds (balanced, 10 seeds; README).
-constexpr double kPoolNoiseFloor = 1e-7;
 
 // Beyond z = 17 the sigmoid is within 4.1e-8 of 1: under an ulp of the float
 // dictionary's entries, which it scales.
@@ -364,127 +359,6 @@ RefineLmSummary RefineLobes(const ShadowPlaneModel& model, const std::vector<dou
   lighting->lobes = std::move(kept);
   if (hints) *hints = std::move(kept_hints);
   return s;
-}
-
-// The per-channel least-squares system of lobe amplitudes for fixed axes and
-// sharpness over the points of `model`: gram = A^T A, atb = A^T b, btb = b^T b,
-// A(k, i) = sqrt(w_k) rho_kc/pi (direct + bounce shading of lobe i at k),
-// b(k) = sqrt(w_k) target_kc. NNLS on it gives the amplitudes of any subset.
-// Systems of the same lobes over disjoint or repeated points add up.
-struct LobeNormalEquations {
-  std::array<Eigen::MatrixXd, 3> gram;
-  std::array<Eigen::VectorXd, 3> atb;
-  std::array<double, 3> btb{};
-  double weight_sum = 0;  // sum of w_k: the weighted MSE is the squared error / (3 weight_sum)
-
-  void Add(const LobeNormalEquations& other) {
-    for (int c = 0; c < 3; ++c) {
-      gram[c] = gram[c].size() ? Eigen::MatrixXd(gram[c] + other.gram[c]) : other.gram[c];
-      atb[c] = atb[c].size() ? Eigen::VectorXd(atb[c] + other.atb[c]) : other.atb[c];
-      btb[c] += other.btb[c];
-    }
-    weight_sum += other.weight_sum;
-  }
-};
-
-// |A x - b|^2 of one channel from its system: b^T b - 2 x^T A^T b + x^T A^T A x.
-double SquaredError(const Eigen::MatrixXd& gram, const Eigen::VectorXd& atb, double btb, const Eigen::VectorXd& x) {
-  return btb - 2 * x.dot(atb) + x.dot(gram * x);
-}
-
-LobeNormalEquations BuildLobeNormalEquations(const ShadowPlaneModel& model, const std::vector<double>& weight,
-                                             const std::vector<Eigen::Vector3f>& targets,
-                                             const std::vector<SgLobe>& lobes,
-                                             std::vector<OccluderCones::AngleHints>* hints = nullptr,
-                                             const std::array<Eigen::MatrixXf, 3>* bounce_irradiance = nullptr) {
-  const long np = static_cast<long>(model.points.size());
-  std::vector<Eigen::Vector3d> axes;
-  std::vector<double> sharpness;
-  SplitLobes(lobes, &axes, &sharpness);
-  // One batch of shading columns (as the dictionary's), not a render a lobe.
-  const LobeShadingColumns shading = LobeColumns(model, axes, sharpness, hints, bounce_irradiance);
-  LobeNormalEquations eq;
-  for (int c = 0; c < 3; ++c) {
-    Eigen::VectorXd b(np);
-    for (long k = 0; k < np; ++k) b[k] = std::sqrt(weight[k]) * targets[k][c];
-    const Eigen::MatrixXd a = shading.Weighted(model, weight, c);
-    eq.gram[c] = a.transpose() * a;
-    eq.atb[c] = a.transpose() * b;
-    eq.btb[c] = b.squaredNorm();
-  }
-  for (double w : weight) eq.weight_sum += w;
-  return eq;
-}
-
-// Amplitudes of every lobe of *lighting re-solved by NNLS per channel for
-// its axes and sharpness: the start of LM is then no worse than the model
-// without the newest lobe.
-void ResolveAmplitudes(const ShadowPlaneModel& model, const std::vector<double>& weight,
-                       const std::vector<Eigen::Vector3f>& targets, SgLighting* lighting,
-                       std::vector<OccluderCones::AngleHints>* hints) {
-  if (lighting->lobes.empty()) return;
-  const LobeNormalEquations eq = BuildLobeNormalEquations(model, weight, targets, lighting->lobes, hints);
-  for (int c = 0; c < 3; ++c) {
-    const Eigen::VectorXd a = SolveNnls(eq.gram[c], eq.atb[c]);
-    for (size_t i = 0; i < lighting->lobes.size(); ++i) lighting->lobes[i].amplitude[c] = a[static_cast<long>(i)];
-  }
-}
-
-// The reverse order of backward elimination (OrderByElimination) on the
-// system of all the lobes: indices, the lobe kept last first.
-std::vector<long> EliminationOrder(const LobeNormalEquations& eq) {
-  const long n = eq.atb[0].size();
-  // Fit error of a subset, amplitudes by NNLS per channel; `active` (if not
-  // null) gets whether each member is lit (> 0) in some channel.
-  auto subset_error = [&](const std::vector<long>& set, std::vector<char>* active) {
-    const long m = static_cast<long>(set.size());
-    if (active) active->assign(m, 0);
-    double e = 0;
-    for (int c = 0; c < 3; ++c) {
-      Eigen::MatrixXd h(m, m);
-      Eigen::VectorXd f(m);
-      for (long i = 0; i < m; ++i) {
-        f[i] = eq.atb[c][set[i]];
-        for (long j = 0; j < m; ++j) h(i, j) = eq.gram[c](set[i], set[j]);
-      }
-      const Eigen::VectorXd x = SolveNnls(h, f);
-      e += SquaredError(h, f, eq.btb[c], x);
-      if (active)
-        for (long i = 0; i < m; ++i) (*active)[i] |= x[i] > 0;
-    }
-    return e;
-  };
-  // Each round drops the member whose removal raises the error least. Those
-  // at zero amplitude in every channel raise it by nothing, and the others'
-  // solution stays optimal without them: they all go at once (in input
-  // order), without the other members' solves. The candidates of a round are
-  // independent solves, shared by the threads (the pool's sharpness copies
-  // make a few hundred members).
-  std::vector<long> set(n);
-  std::iota(set.begin(), set.end(), 0);
-  std::vector<long> dropped;
-  while (!set.empty()) {
-    std::vector<char> active;
-    subset_error(set, &active);
-    if (std::find(active.begin(), active.end(), 0) != active.end()) {
-      std::vector<long> kept;
-      for (size_t t = 0; t < set.size(); ++t) (active[t] ? kept : dropped).push_back(set[t]);
-      set = std::move(kept);
-      continue;
-    }
-    const long m = static_cast<long>(set.size());
-    std::vector<double> error(static_cast<size_t>(m));
-#pragma omp parallel for schedule(dynamic, 1) if (m > 8 && !omp_in_parallel())
-    for (long t = 0; t < m; ++t) {
-      std::vector<long> rest = set;
-      rest.erase(rest.begin() + t);
-      error[static_cast<size_t>(t)] = subset_error(rest, nullptr);
-    }
-    const long drop = std::min_element(error.begin(), error.end()) - error.begin();
-    dropped.push_back(set[drop]);
-    set.erase(set.begin() + drop);
-  }
-  return std::vector<long>(dropped.rbegin(), dropped.rend());
 }
 
 struct FitResult {
@@ -802,139 +676,6 @@ FitResult CarryFit(const FitResult& direct, const FitData& d, const ShadowPlaneM
   return r;
 }
 
-// The sky basis the pool offers (pool_sky_basis): lobes of that sharpness
-// about the plane's normal and about six axes 60 degrees from it, every 60
-// degrees of azimuth. Blended by NNLS they make a sky brighter to one side.
-std::vector<SgLobe> SkyBasisLobes(const Eigen::Vector3d& plane_normal, double sharpness) {
-  const Eigen::Vector3d n = plane_normal.normalized();
-  const Eigen::Vector3d t1 = n.unitOrthogonal(), t2 = n.cross(t1);
-  std::vector<SgLobe> lobes;
-  SgLobe l;
-  l.sharpness = sharpness;
-  l.axis = n;
-  lobes.push_back(l);
-  constexpr int kAzimuths = 6;
-  const double tilt = M_PI / 3;
-  for (int a = 0; a < kAzimuths; ++a) {
-    const double phi = 2 * M_PI * a / kAzimuths;
-    l.axis = (std::cos(tilt) * n + std::sin(tilt) * (std::cos(phi) * t1 + std::sin(phi) * t2)).normalized();
-    lobes.push_back(l);
-  }
-  return lobes;
-}
-
-// Every lobe of the fits, then each again at o.pool_sharpness's multiples
-// of its sharpness (within the refinement's bounds; a copy the bounds make
-// equal to its lobe is left out), with o.pool_sky_lobe the flattest lobe
-// the refinement allows, about the plane's normal, and with
-// o.pool_sky_basis the sky basis (SkyBasisLobes).
-std::vector<SgLobe> PooledLobes(const std::vector<SgLighting>& fits, const SgSolverOptions& o,
-                                const Eigen::Vector3d& plane_normal) {
-  std::vector<SgLobe> lobes;
-  for (const SgLighting& f : fits) lobes.insert(lobes.end(), f.lobes.begin(), f.lobes.end());
-  const RefineLmOptions bounds;
-  const size_t n = lobes.size();
-  for (double factor : o.pool_sharpness)
-    for (size_t i = 0; i < n; ++i) {
-      SgLobe copy = lobes[i];
-      copy.sharpness = std::clamp(copy.sharpness * factor, bounds.min_sharpness, bounds.max_sharpness);
-      if (copy.sharpness != lobes[i].sharpness) lobes.push_back(copy);
-    }
-  if (o.pool_sky_lobe && !lobes.empty()) {
-    SgLobe sky;
-    sky.axis = plane_normal.normalized();
-    sky.sharpness = bounds.min_sharpness;
-    lobes.push_back(sky);
-  }
-  if (o.pool_sky_basis > 0 && !lobes.empty())
-    for (const SgLobe& l : SkyBasisLobes(plane_normal, o.pool_sky_basis)) lobes.push_back(l);
-  return lobes;
-}
-
-// BounceIrradiance of the lobes (the model's bounce), or nothing without it.
-std::array<Eigen::MatrixXf, 3> LobesBounceIrradiance(const ShadowPlaneModel& model, const std::vector<SgLobe>& lobes) {
-  if (!model.bounce || lobes.empty()) return {};
-  std::vector<Eigen::Vector3d> axes;
-  std::vector<double> sharpness;
-  SplitLobes(lobes, &axes, &sharpness);
-  return BounceIrradiance(model, axes, sharpness);
-}
-
-// PoolLobes on the fit points' system of all the lobes (one system serves
-// the elimination and every leading set). *fit_mse (optional): the weighted
-// fit MSE of the result, from the same system.
-SgLighting PoolLobeSystem(LobeNormalEquations eq, std::vector<SgLobe> lobes, const Eigen::Vector3d& up,
-                          const ShadowPlaneModel& hold_model, const std::vector<Eigen::Vector3f>& hold_targets,
-                          const SgSolverOptions& o, std::vector<double>* heldout_path,
-                          double* fit_mse = nullptr, const std::array<Eigen::MatrixXf, 3>* bounce_irradiance = nullptr) {
-  SHADOWSG_CHECK(hold_targets.size() == hold_model.points.size());
-  SgLighting pooled;
-  pooled.up = up;
-  if (heldout_path) heldout_path->clear();
-  if (lobes.empty()) return pooled;
-  const std::vector<long> order = EliminationOrder(eq);
-  for (int c = 0; c < 3; ++c) {
-    eq.gram[c] = Eigen::MatrixXd(eq.gram[c](order, order));
-    eq.atb[c] = Eigen::VectorXd(eq.atb[c](order));
-  }
-  std::vector<SgLobe> ordered;
-  for (long i : order) ordered.push_back(lobes[i]);
-  lobes = std::move(ordered);
-  std::array<Eigen::MatrixXf, 3> irradiance;  // in the same order
-  if (bounce_irradiance && (*bounce_irradiance)[0].size())
-    for (int c = 0; c < 3; ++c) irradiance[c] = (*bounce_irradiance)[c](Eigen::all, order);
-  const long n = static_cast<long>(lobes.size());
-  // Amplitudes of the first k lobes, per channel.
-  auto amplitudes = [&](long k) {
-    std::array<Eigen::VectorXd, 3> x;
-    for (int c = 0; c < 3; ++c) x[c] = SolveNnls(eq.gram[c].topLeftCorner(k, k), eq.atb[c].head(k));
-    return x;
-  };
-  long k = std::min<long>(n, o.lobes);
-  if (o.lobes == 0) {
-    // The held-out error of each leading set from the held-out pixels' own
-    // system (the render is linear in the amplitudes): one batch of shading
-    // columns instead of a render a set; up to pool_max_lobes.
-    const long scored = std::min<long>(n, o.pool_max_lobes);
-    const std::vector<SgLobe> leading(lobes.begin(), lobes.begin() + scored);
-    std::array<Eigen::MatrixXf, 3> leading_irradiance;
-    if (irradiance[0].size())
-      for (int c = 0; c < 3; ++c) leading_irradiance[c] = irradiance[c].leftCols(scored);
-    const LobeNormalEquations hold = BuildLobeNormalEquations(
-        hold_model, std::vector<double>(hold_model.points.size(), 1.0), hold_targets, leading, nullptr,
-        hold_model.bounce && irradiance[0].size() ? &leading_irradiance : nullptr);
-    const double count = 3.0 * std::max<size_t>(1, hold_targets.size());
-    double signal = 0;
-    for (int c = 0; c < 3; ++c) signal += hold.btb[c] / count;
-    std::vector<double> path;
-    for (long m = 1; m <= scored; ++m) {
-      const std::array<Eigen::VectorXd, 3> x = amplitudes(m);
-      double se = 0;
-      for (int c = 0; c < 3; ++c)
-        se += SquaredError(hold.gram[c].topLeftCorner(m, m), hold.atb[c].head(m), hold.btb[c], x[c]);
-      path.push_back(std::max(0.0, se) / count);
-    }
-    const double best = *std::min_element(path.begin(), path.end());
-    k = 1;
-    while (path[k - 1] > best * (1 + o.size_tolerance) + kPoolNoiseFloor * signal) ++k;
-    if (heldout_path) *heldout_path = std::move(path);
-  }
-  const std::array<Eigen::VectorXd, 3> x = amplitudes(k);
-  if (fit_mse) {
-    double se = 0;
-    for (int c = 0; c < 3; ++c)
-      se += SquaredError(eq.gram[c].topLeftCorner(k, k), eq.atb[c].head(k), eq.btb[c], x[c]);
-    *fit_mse = std::max(0.0, se) / (3 * std::max(1e-300, eq.weight_sum));
-  }
-  for (long i = 0; i < k; ++i) {
-    SgLobe b = lobes[i];
-    b.amplitude = Eigen::Vector3d(x[0][i], x[1][i], x[2][i]);
-    if (b.amplitude.maxCoeff() > 0) pooled.lobes.push_back(b);  // lobes left at zero go
-  }
-  RemoveInvalidLobes(&pooled);
-  return pooled;
-}
-
 // Where more than one fit finished, they are judged on the held-out pixels
 // and more that no restart fitted (in the held-out draw's shuffled order),
 // options.judge_pixels in all; empty when no pixel is left or judge_pixels
@@ -1029,15 +770,6 @@ Eigen::MatrixXf DictionaryAngles(const ShadowPlaneModel& fit, const std::vector<
   return theta;
 }
 
-std::vector<SgLobe> OrderByElimination(const ShadowPlaneModel& model, const std::vector<double>& weight,
-                                       const std::vector<Eigen::Vector3f>& targets, const std::vector<SgLobe>& lobes) {
-  SHADOWSG_CHECK(weight.size() == model.points.size() && targets.size() == model.points.size());
-  if (lobes.size() < 2) return lobes;
-  std::vector<SgLobe> ordered;
-  for (long i : EliminationOrder(BuildLobeNormalEquations(model, weight, targets, lobes))) ordered.push_back(lobes[i]);
-  return ordered;
-}
-
 SgLighting CarryIntoBounce(const ShadowPlaneModel& model, const std::vector<double>& weight,
                            const std::vector<Eigen::Vector3f>& targets, SgLighting direct,
                            const SgSolverOptions& o) {
@@ -1046,20 +778,6 @@ SgLighting CarryIntoBounce(const ShadowPlaneModel& model, const std::vector<doub
   RefineLobes(model, weight, targets, o.refine_iterations, &direct, nullptr);
   RemoveInvalidLobes(&direct);
   return direct;
-}
-
-SgLighting PoolLobes(const ShadowPlaneModel& model, const std::vector<double>& weight,
-                     const std::vector<Eigen::Vector3f>& targets, const std::vector<SgLighting>& fits,
-                     const ShadowPlaneModel& hold_model, const std::vector<Eigen::Vector3f>& hold_targets,
-                     const SgSolverOptions& o, std::vector<double>* heldout_path) {
-  SHADOWSG_CHECK(weight.size() == model.points.size() && targets.size() == model.points.size());
-  const std::vector<SgLobe> lobes = PooledLobes(fits, o, model.normal);
-  const std::array<Eigen::MatrixXf, 3> irradiance = LobesBounceIrradiance(model, lobes);
-  const std::array<Eigen::MatrixXf, 3>* shared = irradiance[0].size() ? &irradiance : nullptr;
-  const LobeNormalEquations eq =
-      lobes.empty() ? LobeNormalEquations{} : BuildLobeNormalEquations(model, weight, targets, lobes, nullptr, shared);
-  return PoolLobeSystem(eq, lobes, fits.empty() ? Eigen::Vector3d::UnitZ() : fits[0].up, hold_model, hold_targets, o,
-                        heldout_path, nullptr, shared);
 }
 
 bool BounceRaceDrops(size_t steps, size_t other_steps, double best, double other_best, bool paths_ended,

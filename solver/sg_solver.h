@@ -14,7 +14,7 @@
 //    each (power and first moment kept).
 // 4. Size path: the first k merged lobes, k = 1, 2, ... (two at a time from
 //    path_pairs_from on), in the reverse
-//    order of backward elimination (OrderByElimination), each model
+//    order of backward elimination (OrderByElimination, solver/sg_lobe_system.h), each model
 //    started from the previous one plus the next lobe (with the bounce:
 //    every amplitude re-solved by NNLS first) and refined by Levenberg-Marquardt
 //    (axes on the sphere, log-sharpness, non-negative amplitudes;
@@ -138,7 +138,7 @@ struct SgSolverOptions {
   double bounce_form_tolerance = 0.003;
   int restarts = 1;                // fits from independent fit-pixel draws; the best judged error wins
   // Where a model finished more than one restart: their lobes pooled
-  // (PoolLobes), judged as one more fit. Where it finished one (and no
+  // (PoolLobes, solver/sg_pool.h), judged as one more fit. Where it finished one (and no
   // --lobes N), that fit's pool takes its place if its held-out error is lower.
   bool pool_restarts = true;
   // The pool offers each lobe again at these multiples of its sharpness (on
@@ -282,36 +282,7 @@ bool BounceRaceDrops(size_t steps, size_t other_steps, double best, double other
 // judged either way.
 std::vector<char> LaterRestartModels(const std::vector<char>& first_racing, const SgSolverOptions& o);
 
-// The order in which the size path adds the merged lobes: the reverse of
-// backward elimination on the model's points. Starting from all of them, the
-// lobe whose removal raises the weighted fit error least (every other
-// amplitude re-solved by NNLS per channel; weight: one per point) goes, and
-// so on; the lobe left last comes first. So the path's first k lobes are the
-// k that elimination keeps, and a lobe needed for a shadow comes early even
-// when it lights the plane little: the low sun of pub_torus_sunrise lights it
-// at 4 degrees and was twelfth by its share of the image. Fast, 10 seeds,
-// 2 threads, against the share order (README): sunrise 37.80 (36.91-38.34) ->
-// 39.12 (37.39-39.63) dB median (range), interior 34.25 (33.74-34.58) ->
-// 34.22 (33.88-34.33), sunsky and the cone scene level.
-std::vector<SgLobe> OrderByElimination(const ShadowPlaneModel& model, const std::vector<double>& weight,
-                                       const std::vector<Eigen::Vector3f>& targets, const std::vector<SgLobe>& lobes);
 
-// The pool of restarts (step 7): every lobe of `fits` together (and each
-// again at options.pool_sharpness's multiples of its sharpness), in the
-// reverse order of backward elimination on the model's points
-// (OrderByElimination), amplitudes by NNLS per channel there; of the leading
-// sets (up to options.pool_max_lobes), the smallest whose error on the hold
-// model's points is within size_tolerance of the best plus 1e-7 of their
-// mean squared signal (options.lobes > 0: the first that many). Lobes
-// left at zero amplitude are dropped. The restarts' local minima differ in
-// where they put lobes that the shadows barely pin down; the pool lets them
-// share the work: balanced, 10 seeds, pub_torus_sunrise 39.80 -> 40.37 dB
-// median, seed spread 0.93 -> 0.57 (README). heldout_path (optional): the
-// error of each leading set on the hold model's points.
-SgLighting PoolLobes(const ShadowPlaneModel& model, const std::vector<double>& weight,
-                     const std::vector<Eigen::Vector3f>& targets, const std::vector<SgLighting>& fits,
-                     const ShadowPlaneModel& hold_model, const std::vector<Eigen::Vector3f>& hold_targets,
-                     const SgSolverOptions& options, std::vector<double>* heldout_path = nullptr);
 
 // A direct-only fit carried into the model with the casters' bounce
 // (`model`, which must have it): every amplitude re-solved by NNLS per

@@ -7,6 +7,7 @@
 #include <cstdio>
 
 #include "solver/sg_paper_solver.h"
+#include "solver/sg_pool.h"
 #include "solver/sg_refine_lm.h"
 #include "solver/sg_solver.h"
 #include "solver/shadow_plane.h"
