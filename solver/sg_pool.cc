@@ -13,10 +13,10 @@ namespace {
 // The pool's leading sets are not refined further, so no smaller one is kept
 // for what refinement might add, and the judging set's 16000 pixels resolve
 // smaller differences than the held-out set's 2000: a floor 10x lower than
-// the size path's. On
-// pub_torus_sunsky (about 45 dB) 1e-6 is 3 % of the error, six times the
-// tolerance; with the pool chosen on the judging set it kept sets 2-3 %
-// worse there, -0.05 dB on most seeds (balanced, 10 seeds; README).
+// the size path's. On pub_torus_sunsky (about 45 dB) 1e-6 is 3 % of the
+// error, six times the tolerance; with the pool chosen on the judging set it
+// kept sets 2-3 % worse there, -0.05 dB on most seeds (balanced, 10 seeds;
+// README).
 constexpr double kPoolNoiseFloor = 1e-7;
 
 }  // namespace
