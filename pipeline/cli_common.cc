@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "pipeline/progress.h"
+#include "solver/eigen_blocking.h"
 #include "stages/io/atomic_file.h"
 
 namespace shadowsg {
@@ -21,6 +22,7 @@ StageContext MakeContext(const CommonOptions& o) {
   StageContext ctx;
   ctx.threads = o.threads > 0 ? o.threads : omp_get_num_procs();
   omp_set_num_threads(ctx.threads);
+  PinEigenBlocking();  // the same seed, the same result on any machine
   ctx.seed = o.seed;
   ctx.quiet = o.quiet;
   const bool quiet = o.quiet;
