@@ -8,6 +8,7 @@
 
 #include "solver/caster_bounce.h"
 #include "solver/cosine_integral.h"
+#include "solver/eigen_blocking.h"
 #include "solver/primitives.h"
 #include "solver/shadow_plane.h"
 #include "solver/sg_refine_lm.h"
@@ -215,4 +216,12 @@ BENCHMARK(BM_GatherBounce)->Arg(0)->Arg(3)->Unit(benchmark::kMillisecond);
 }  // namespace
 }  // namespace shadowsg
 
-BENCHMARK_MAIN();
+// Eigen's blocking pinned as the CLI pins it, so the kernels run the products the solver runs.
+int main(int argc, char** argv) {
+  shadowsg::PinEigenBlocking();
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
