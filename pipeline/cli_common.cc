@@ -22,7 +22,7 @@ StageContext MakeContext(const CommonOptions& o) {
   StageContext ctx;
   ctx.threads = o.threads > 0 ? o.threads : omp_get_num_procs();
   omp_set_num_threads(ctx.threads);
-  PinEigenBlocking();  // the same seed, the same result on any machine
+  PinEigenBlocking();  // results independent of the caches the CPU reports
   ctx.seed = o.seed;
   ctx.quiet = o.quiet;
   const bool quiet = o.quiet;
