@@ -1,10 +1,13 @@
 // PinEigenBlocking (solver/eigen_blocking.h): a product rounds the same way
-// whatever cache sizes the CPU reported before the pin.
+// whatever cache sizes the CPU reported before the pin, and every subcommand's
+// context pins them.
 #include "solver/eigen_blocking.h"
 
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+
+#include "pipeline/cli_common.h"
 
 namespace shadowsg {
 namespace {
@@ -29,6 +32,18 @@ TEST(EigenBlocking, ProductsRoundTheSameWhateverTheCpuReports) {
   const Eigen::MatrixXf big_pinned = GramAfterReported(a, 64 << 10, 1 << 20, 32 << 20, true);
   const Eigen::MatrixXf small_pinned = GramAfterReported(a, 32 << 10, 256 << 10, 8 << 20, true);
   EXPECT_EQ((big_pinned - small_pinned).cwiseAbs().maxCoeff(), 0.0f);
+  EXPECT_EQ(Eigen::l1CacheSize(), kPinnedL1Cache);
+  EXPECT_EQ(Eigen::l2CacheSize(), kPinnedL2Cache);
+  EXPECT_EQ(Eigen::l3CacheSize(), kPinnedL3Cache);
+}
+
+// The CLI's subcommands all start from MakeContext: it pins the sizes.
+TEST(EigenBlocking, EverySubcommandsContextPinsTheSizes) {
+  Eigen::setCpuCacheSizes(64 << 10, 1 << 20, 256 << 20);
+  CommonOptions options;
+  options.threads = 1;
+  options.quiet = true;
+  MakeContext(options);
   EXPECT_EQ(Eigen::l1CacheSize(), kPinnedL1Cache);
   EXPECT_EQ(Eigen::l2CacheSize(), kPinnedL2Cache);
   EXPECT_EQ(Eigen::l3CacheSize(), kPinnedL3Cache);
