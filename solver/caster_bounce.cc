@@ -256,7 +256,7 @@ std::array<Eigen::MatrixXf, 3> CasterBounce::Irradiance(const std::vector<Eigen:
     }
   std::array<Eigen::MatrixXf, 3> out = {e, e, e};
   if (ground_radiance)
-    for (int c = 0; c < 3; ++c) out[c].noalias() += ground_weight_ * (*ground_radiance)[c];
+    for (int c = 0; c < 3; ++c) out[c] += RowParallelProduct(ground_weight_, (*ground_radiance)[c]);
   return out;
 }
 
@@ -284,7 +284,7 @@ FactoredFormFactors FactorFormFactors(Eigen::MatrixXf k, double tolerance) {
     f.left = std::move(k);
     return f;
   }
-  const Eigen::MatrixXd gram = (k.transpose() * k).cast<double>();
+  const Eigen::MatrixXd gram = ColumnParallelTransposeProduct<float>(k, k).cast<double>();
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(gram);
   // Eigenvalues ascending: the residual of a rank-r basis holds the smallest m - r.
   const Eigen::VectorXd ev = eig.eigenvalues().cwiseMax(0.0);
@@ -297,7 +297,7 @@ FactoredFormFactors FactorFormFactors(Eigen::MatrixXf k, double tolerance) {
     return f;
   }
   f.basis = eig.eigenvectors().rightCols(rank).transpose().cast<float>();
-  f.left = k * f.basis.transpose();
+  f.left = RowParallelProduct(k, f.basis.transpose());
   return f;
 }
 
@@ -308,7 +308,7 @@ std::vector<Eigen::Vector3f> CasterBounce::Gather(const std::vector<Eigen::Vecto
   for (size_t begin = 0; begin < points.size(); begin += kChunk) {
     const size_t end = std::min(points.size(), begin + kChunk);
     const Eigen::MatrixXf b =
-        FormFactors(std::vector<Eigen::Vector3d>(points.begin() + begin, points.begin() + end)) * patch_radiance;
+        RowParallelProduct(FormFactors(std::vector<Eigen::Vector3d>(points.begin() + begin, points.begin() + end)), patch_radiance);
     for (size_t r = begin; r < end; ++r) out[r] = b.row(static_cast<long>(r - begin)).transpose();
   }
   return out;

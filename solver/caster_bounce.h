@@ -77,7 +77,7 @@ struct FactoredFormFactors {
   // Times in two halves: the radiance in the basis (rank x n), then at the
   // points. Sums of reduced columns expand to the sum of their products: a
   // caller that needs only a weighted sum of many lobes' bounce expands that.
-  Eigen::MatrixXf Reduce(const Eigen::MatrixXf& x) const { return basis.size() ? Eigen::MatrixXf(basis * x) : x; }
+  Eigen::MatrixXf Reduce(const Eigen::MatrixXf& x) const { return basis.size() ? RowParallelProduct(basis, x) : x; }
   Eigen::MatrixXf Expand(const Eigen::MatrixXf& y) const { return RowParallelProduct(left, y); }
 };
 FactoredFormFactors FactorFormFactors(Eigen::MatrixXf k, double tolerance);

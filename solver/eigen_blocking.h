@@ -20,8 +20,17 @@ inline constexpr std::ptrdiff_t kPinnedL1Cache = 32 * 1024;
 inline constexpr std::ptrdiff_t kPinnedL2Cache = 512 * 1024;
 inline constexpr std::ptrdiff_t kPinnedL3Cache = 32 * 1024 * 1024;
 
+// Eigen's own threading is turned off as well: a product it splits among
+// threads is blocked for that (a shorter depth block than on one thread), so
+// one seed rounded differently on one thread and on two. The solver's
+// parallel loops share work in fixed pieces instead
+// (RowParallelProduct, solver/row_parallel_product.h).
+//
 // Process-wide: call once, before the first product (the CLI does, in
 // MakeContext).
-inline void PinEigenBlocking() { Eigen::setCpuCacheSizes(kPinnedL1Cache, kPinnedL2Cache, kPinnedL3Cache); }
+inline void PinEigenBlocking() {
+  Eigen::setCpuCacheSizes(kPinnedL1Cache, kPinnedL2Cache, kPinnedL3Cache);
+  Eigen::setNbThreads(1);
+}
 
 }  // namespace shadowsg

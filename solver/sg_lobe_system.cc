@@ -8,6 +8,7 @@
 
 #include "calib/error.h"
 #include "solver/nnls.h"
+#include "solver/row_parallel_product.h"
 
 namespace shadowsg {
 
@@ -31,7 +32,7 @@ LobeNormalEquations BuildLobeNormalEquations(const ShadowPlaneModel& model, cons
     Eigen::VectorXd b(np);
     for (long k = 0; k < np; ++k) b[k] = std::sqrt(weight[k]) * targets[k][c];
     const Eigen::MatrixXd a = shading.Weighted(model, weight, c);
-    eq.gram[c] = a.transpose() * a;
+    eq.gram[c] = ColumnParallelTransposeProduct<double>(a, a);
     eq.atb[c] = a.transpose() * b;
     eq.btb[c] = b.squaredNorm();
   }

@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include "calib/error.h"
 #include "solver/row_parallel_product.h"
@@ -217,21 +218,32 @@ bool RefineCost::CostExceeds(const std::vector<SgLobe>& lobes, double limit) con
     Eigen::MatrixXf theta;
     model_.cones.AnglesOfRange(axes, static_cast<size_t>(begin), static_cast<size_t>(end), &theta, &caps,
                                CapSides::kBoth);
-    double sum_sq = 0;
-#pragma omp parallel for schedule(static) reduction(+ : sum_sq)
-    for (long k = begin; k < end; ++k) {
-      Eigen::Vector3d direct = Eigen::Vector3d::Zero();
-      for (int j = 0; j < lobes_; ++j)
-        direct += ShadeLobe(products[j], theta(k - begin, j), Eigen::Vector3d::Zero(),
-                            model_.cap_occlusion ? model_.occluder_cos[k] : kNoOcclusionCap)
-                      .value *
-                  lobes[j].amplitude;
-      if (bounce.size()) direct += bounce.row(k).transpose().cast<double>();
-      for (int c = 0; c < 3; ++c) {
-        const double r = model_.albedo[k][c] / M_PI * sqrt_w_[k] * direct[c] - sqrt_w_[k] * targets_[k][c];
-        sum_sq += r * r;
+    // Summed in fixed blocks, in order: the same rounding on any number of
+    // threads (an OpenMP reduction adds the threads' partial sums).
+    constexpr long kBlock = 64;
+    const long blocks = (end - begin + kBlock - 1) / kBlock;
+    std::vector<double> block_sum(static_cast<size_t>(blocks), 0.0);
+#pragma omp parallel for schedule(static)
+    for (long b = 0; b < blocks; ++b) {
+      const long first = begin + b * kBlock, last = std::min(end, first + kBlock);
+      double sum = 0;
+      for (long k = first; k < last; ++k) {
+        Eigen::Vector3d direct = Eigen::Vector3d::Zero();
+        for (int j = 0; j < lobes_; ++j)
+          direct += ShadeLobe(products[j], theta(k - begin, j), Eigen::Vector3d::Zero(),
+                              model_.cap_occlusion ? model_.occluder_cos[k] : kNoOcclusionCap)
+                        .value *
+                    lobes[j].amplitude;
+        if (bounce.size()) direct += bounce.row(k).transpose().cast<double>();
+        for (int c = 0; c < 3; ++c) {
+          const double r = model_.albedo[k][c] / M_PI * sqrt_w_[k] * direct[c] - sqrt_w_[k] * targets_[k][c];
+          sum += r * r;
+        }
       }
+      block_sum[b] = sum;
     }
+    double sum_sq = 0;
+    for (double part : block_sum) sum_sq += part;
     cost += 0.5 * sum_sq;
     if (cost > limit) return true;
     // The quarter would not get there at this rate: no proof to wait for.

@@ -1,10 +1,9 @@
 #include "solver/sg_refine_lm.h"
 
-#include <omp.h>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include "calib/error.h"
 
@@ -22,36 +21,47 @@ struct NormalEquations {
   Eigen::VectorXd g;  // J'r
 };
 
-// J'J and J'r from the per-channel blocks; each thread takes a share of the
-// points and the shares are summed.
+// J'J and J'r from the per-channel blocks. The points are cut into
+// kFormShares fixed shares whatever the thread count, and the shares' sums
+// are added in order, so the normal equations round the same on any number
+// of threads (with shares per thread, one seed's lobes differed between one,
+// two and three threads).
+constexpr long kFormShares = 16;
+
 NormalEquations Form(const RefineJacobian& J, const Eigen::MatrixX3d& r, int L) {
   const long np = r.rows(), m = 4L * L, n = 6L * L, geo = 3L * L;
-  NormalEquations ne{Eigen::MatrixXd::Zero(n, n), Eigen::VectorXd::Zero(n)};
+  std::vector<Eigen::MatrixXd> share_h(kFormShares);
+  std::vector<Eigen::VectorXd> share_g(kFormShares);
 #pragma omp parallel
   {
-    const long t = omp_get_thread_num(), nt = omp_get_num_threads();
-    const long begin = np * t / nt, end = np * (t + 1) / nt;
-    Eigen::MatrixXd H = Eigen::MatrixXd::Zero(n, n), Hc(m, m);
-    Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
-    for (int c = 0; c < 3 && end > begin; ++c) {
-      const auto rows = J.channel[c].middleRows(begin, end - begin);
-      Hc.setZero();
-      Hc.selfadjointView<Eigen::Lower>().rankUpdate(rows.transpose());
-      const Eigen::VectorXd gc = rows.transpose() * r.col(c).segment(begin, end - begin);
-      // Lower triangles only: geometry x geometry is shared by the channels,
-      // each channel's amplitudes meet the geometry and themselves.
-      const long amp = geo + c * L;
-      H.topLeftCorner(geo, geo) += Hc.topLeftCorner(geo, geo);
-      H.block(amp, 0, L, geo) += Hc.block(geo, 0, L, geo);
-      H.block(amp, amp, L, L) += Hc.bottomRightCorner(L, L);
-      g.head(geo) += gc.head(geo);
-      g.segment(amp, L) += gc.tail(L);
+    Eigen::MatrixXd Hc(m, m);
+#pragma omp for schedule(static)
+    for (long t = 0; t < kFormShares; ++t) {
+      const long begin = np * t / kFormShares, end = np * (t + 1) / kFormShares;
+      Eigen::MatrixXd& H = share_h[t];
+      Eigen::VectorXd& g = share_g[t];
+      H.setZero(n, n);
+      g.setZero(n);
+      for (int c = 0; c < 3 && end > begin; ++c) {
+        const auto rows = J.channel[c].middleRows(begin, end - begin);
+        Hc.setZero();
+        Hc.selfadjointView<Eigen::Lower>().rankUpdate(rows.transpose());
+        const Eigen::VectorXd gc = rows.transpose() * r.col(c).segment(begin, end - begin);
+        // Lower triangles only: geometry x geometry is shared by the channels,
+        // each channel's amplitudes meet the geometry and themselves.
+        const long amp = geo + c * L;
+        H.topLeftCorner(geo, geo) += Hc.topLeftCorner(geo, geo);
+        H.block(amp, 0, L, geo) += Hc.block(geo, 0, L, geo);
+        H.block(amp, amp, L, L) += Hc.bottomRightCorner(L, L);
+        g.head(geo) += gc.head(geo);
+        g.segment(amp, L) += gc.tail(L);
+      }
     }
-#pragma omp critical
-    {
-      ne.H += H;
-      ne.g += g;
-    }
+  }
+  NormalEquations ne{std::move(share_h[0]), std::move(share_g[0])};
+  for (long t = 1; t < kFormShares; ++t) {
+    ne.H += share_h[t];
+    ne.g += share_g[t];
   }
   ne.H = Eigen::MatrixXd(ne.H.selfadjointView<Eigen::Lower>());
   return ne;

@@ -18,6 +18,7 @@
 #include "solver/sg_refine_cost.h"
 #include "solver/sg_refine_lm.h"
 #include "solver/nnls.h"
+#include "solver/row_parallel_product.h"
 #include "solver/sg_shading.h"
 #include "solver/sort_by_key.h"
 
@@ -543,7 +544,8 @@ FitRun StartFit(const FitData& d, bool bounce, const ShadowPlaneModel& hold_mode
     Eigen::MatrixXd amps(P, 3);
     for (int c = 0; c < 3; ++c) {
       const Eigen::MatrixXf GW = GP.array().colwise() * W.col(c).array();
-      amps.col(c) = SolveNnls((GW.transpose() * GP).cast<double>(), (GW.transpose() * B.col(c)).cast<double>());
+      amps.col(c) = SolveNnls(ColumnParallelTransposeProduct<float>(GW, GP).cast<double>(),
+                              (GW.transpose() * B.col(c)).cast<double>());
     }
     for (long a = 0; a < P; ++a)
       if (amps.row(a).maxCoeff() > 0)

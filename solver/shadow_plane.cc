@@ -205,7 +205,7 @@ namespace {
 // K (radiance): the patches' radiance carried to the model's points.
 Eigen::MatrixXf GatherBounce(const ShadowPlaneModel& model, const Eigen::MatrixXf& radiance) {
   if (model.HasBounceForm()) return model.bounce_form.Times(radiance);
-  return model.bounce->FormFactors(model.points) * radiance;
+  return RowParallelProduct(model.bounce->FormFactors(model.points), radiance);
 }
 
 }  // namespace

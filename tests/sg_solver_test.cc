@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "solver/eigen_blocking.h"
 #include "solver/sg_paper_solver.h"
 #include "solver/sg_pool.h"
 #include "solver/sg_refine_lm.h"
@@ -205,40 +206,54 @@ TEST(SgSolver, RestartsKeepTheBestHeldOutFitWithinBounds) {
   EXPECT_DOUBLE_EQ(s1.restart_heldout_mse[0], s.restart_heldout_mse[0]);
 }
 
-// The restarts after the first run side by side, one thread each: with two
-// threads each is the fit it is with one (the first restart, on two threads,
-// may differ by rounding). Progress from them reaches the callback one call at
-// a time and never goes back.
-TEST(SgSolver, LaterRestartsRunSideBySideOnOneThreadEach) {
+// The same seed gives the same fit on any number of threads: the restarts
+// after the first run side by side, one thread each, the sums shared among
+// threads are cut into fixed pieces, and Eigen's own threading is off
+// (PinEigenBlocking). Progress from the side-by-side restarts reaches the
+// callback one call at a time and never goes back.
+TEST(SgSolver, AnyThreadCountGivesTheSameFit) {
   const ShadowPlaneModel model = SgTestModel(48);
   const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, Cases()[1].truth);
   SgSolverOptions o = SgSolverOptions::Budget("balanced");
   ASSERT_EQ(o.restarts, 3);
   o.seed = 5;
-  const int saved = omp_get_max_threads();
-  omp_set_num_threads(1);
-  SgSolverSummary one;
-  SolveSg(model, targets, o, &one);
-  omp_set_num_threads(2);
-  SgSolverSummary two;
+  const int saved_threads = omp_get_max_threads(), saved_eigen_threads = Eigen::nbThreads();
+  const std::ptrdiff_t l1 = Eigen::l1CacheSize(), l2 = Eigen::l2CacheSize(), l3 = Eigen::l3CacheSize();
+  PinEigenBlocking();
+  std::vector<SgLighting> fits;
+  std::vector<SgSolverSummary> summaries;
   std::vector<double> fractions;
   std::atomic<int> inside{0};
   std::atomic<bool> overlapped{false};
-  const ProgressFn progress = [&](double f, const std::string&) {
-    if (inside.fetch_add(1) != 0) overlapped = true;
-    fractions.push_back(f);
-    inside.fetch_sub(1);
-  };
-  SolveSg(model, targets, o, &two, progress);
-  omp_set_num_threads(saved);
-  ASSERT_EQ(one.restart_heldout_mse.size(), 4u);  // three restarts and their pool
-  ASSERT_EQ(two.restart_heldout_mse.size(), 4u);
-  for (size_t r = 1; r < 3; ++r) EXPECT_DOUBLE_EQ(two.restart_heldout_mse[r], one.restart_heldout_mse[r]) << r;
-  EXPECT_FALSE(overlapped);
-  ASSERT_FALSE(fractions.empty());
-  EXPECT_TRUE(std::is_sorted(fractions.begin(), fractions.end()));
-  EXPECT_GE(fractions.front(), 0.0);
-  EXPECT_DOUBLE_EQ(fractions.back(), 1.0);
+  for (int threads : {1, 2, 3}) {
+    omp_set_num_threads(threads);
+    fractions.clear();
+    const ProgressFn progress = [&](double f, const std::string&) {
+      if (inside.fetch_add(1) != 0) overlapped = true;
+      fractions.push_back(f);
+      inside.fetch_sub(1);
+    };
+    summaries.emplace_back();
+    fits.push_back(SolveSg(model, targets, o, &summaries.back(), progress));
+    EXPECT_FALSE(overlapped) << threads;
+    ASSERT_FALSE(fractions.empty());
+    EXPECT_TRUE(std::is_sorted(fractions.begin(), fractions.end())) << threads;
+    EXPECT_GE(fractions.front(), 0.0);
+    EXPECT_DOUBLE_EQ(fractions.back(), 1.0);
+  }
+  omp_set_num_threads(saved_threads);
+  Eigen::setNbThreads(saved_eigen_threads);
+  Eigen::setCpuCacheSizes(l1, l2, l3);
+  ASSERT_EQ(summaries[0].restart_heldout_mse.size(), 4u);  // three restarts and their pool
+  for (size_t t = 1; t < fits.size(); ++t) {
+    EXPECT_EQ(summaries[t].restart_heldout_mse, summaries[0].restart_heldout_mse) << t + 1 << " threads";
+    ASSERT_EQ(fits[t].lobes.size(), fits[0].lobes.size()) << t + 1 << " threads";
+    for (size_t j = 0; j < fits[0].lobes.size(); ++j) {
+      EXPECT_EQ(fits[t].lobes[j].axis, fits[0].lobes[j].axis) << t + 1 << " threads, lobe " << j;
+      EXPECT_EQ(fits[t].lobes[j].sharpness, fits[0].lobes[j].sharpness) << t + 1 << " threads, lobe " << j;
+      EXPECT_EQ(fits[t].lobes[j].amplitude, fits[0].lobes[j].amplitude) << t + 1 << " threads, lobe " << j;
+    }
+  }
 }
 
 // With a choice of fits, the judging set (held-out pixels and every pixel no
