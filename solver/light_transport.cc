@@ -209,44 +209,55 @@ Eigen::MatrixXd LightTransport::Gram(const std::vector<size_t>& rows, const Eige
   Eigen::MatrixXd g = Eigen::MatrixXd::Zero(n, n);
   Eigen::VectorXd occluded_sum = Eigen::VectorXd::Zero(n);
   double lit_weight = 0;
-  // Each thread accumulates its own n x n matrix: bound their total memory.
-  const int threads = static_cast<int>(std::clamp<double>(
-      std::floor(kGramScratchBytes / (sizeof(double) * n * static_cast<double>(n))), 1, omp_get_max_threads()));
-#pragma omp parallel num_threads(threads)
+  // The rows are cut into a fixed number of pieces, each summed into its own
+  // n x n matrix and the pieces added in order: the same sums on any number
+  // of threads (a matrix per thread, added as the threads finished, rounded
+  // differently from run to run on three). At most 8 pieces, fewer where
+  // their matrices would pass the memory bound.
+  const long pieces = static_cast<long>(
+      std::clamp<double>(std::floor(kGramScratchBytes / (sizeof(double) * n * static_cast<double>(n))), 1, 8));
+  std::vector<Eigen::MatrixXd> piece_g(pieces);
+  std::vector<Eigen::VectorXd> piece_s(pieces);
+  std::vector<double> piece_w(pieces, 0.0);
+  const long nrows = static_cast<long>(rows.size());
+#pragma omp parallel
   {
-    Eigen::MatrixXd g_local = Eigen::MatrixXd::Zero(n, n);
-    Eigen::VectorXd s_local = Eigen::VectorXd::Zero(n);
-    double w_local = 0;
     std::vector<uint64_t> words(words_);
     std::vector<int> index;
-#pragma omp for schedule(dynamic, 64)
-    for (size_t r = 0; r < rows.size(); ++r) {
-      const uint64_t* bits = &visible_[rows[r] * words_];
-      const double w = weights[r];
-      int visible = 0, lit = 0;
-      for (int k = 0; k < words_; ++k) {
-        visible += __builtin_popcountll(bits[k]);
-        lit += __builtin_popcountll(lit_[k]);
-      }
-      if (lit - visible <= visible) {
-        for (int k = 0; k < words_; ++k) words[k] = lit_[k] & ~bits[k];
-        w_local += w;
-        SetBits(words.data(), words_, &index);
-        for (int a : index) s_local[a] += w;
-      } else {
-        SetBits(bits, words_, &index);
-      }
-      for (size_t b = 0; b < index.size(); ++b) {
-        double* column = &g_local(0, index[b]);
-        for (size_t a = b; a < index.size(); ++a) column[index[a]] += w;
+#pragma omp for schedule(dynamic, 1)
+    for (long p = 0; p < pieces; ++p) {
+      Eigen::MatrixXd& g_local = piece_g[p];
+      Eigen::VectorXd& s_local = piece_s[p];
+      g_local.setZero(n, n);
+      s_local.setZero(n);
+      for (long r = nrows * p / pieces; r < nrows * (p + 1) / pieces; ++r) {
+        const uint64_t* bits = &visible_[rows[r] * words_];
+        const double w = weights[r];
+        int visible = 0, lit = 0;
+        for (int k = 0; k < words_; ++k) {
+          visible += __builtin_popcountll(bits[k]);
+          lit += __builtin_popcountll(lit_[k]);
+        }
+        if (lit - visible <= visible) {
+          for (int k = 0; k < words_; ++k) words[k] = lit_[k] & ~bits[k];
+          piece_w[p] += w;
+          SetBits(words.data(), words_, &index);
+          for (int a : index) s_local[a] += w;
+        } else {
+          SetBits(bits, words_, &index);
+        }
+        for (size_t b = 0; b < index.size(); ++b) {
+          double* column = &g_local(0, index[b]);
+          for (size_t a = b; a < index.size(); ++a) column[index[a]] += w;
+        }
       }
     }
-#pragma omp critical(shadowsg_light_transport_gram)
-    {
-      g += g_local;
-      occluded_sum += s_local;
-      lit_weight += w_local;
-    }
+  }
+  for (long p = 0; p < pieces; ++p) {
+    g += piece_g[p];
+    occluded_sum += piece_s[p];
+    lit_weight += piece_w[p];
+    piece_g[p] = Eigen::MatrixXd();
   }
   Eigen::VectorXd lit(n);
   for (int j = 0; j < n; ++j) lit[j] = (lit_[j / 64] >> (j % 64)) & 1u;

@@ -1,6 +1,7 @@
 #include "solver/baselines.h"
 
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <cmath>
 #include <random>
@@ -166,6 +167,15 @@ TEST(LightTransport, GramAndCrossProductMatchDenseProducts) {
   EXPECT_LT((t.Gram(rows, w) - gram).norm(), 1e-12 * gram.norm());
   const Eigen::MatrixX3d cross = dense.transpose() * coefficients;
   EXPECT_LT((t.CrossProduct(rows, coefficients) - cross).norm(), 1e-12 * cross.norm());
+  // The same sums on any number of threads, run after run.
+  const int saved = omp_get_max_threads();
+  omp_set_num_threads(1);
+  const Eigen::MatrixXd one = t.Gram(rows, w);
+  for (int threads : {2, 3, 3}) {
+    omp_set_num_threads(threads);
+    EXPECT_EQ((t.Gram(rows, w) - one).cwiseAbs().maxCoeff(), 0.0) << threads << " threads, " << rows.size() << " rows";
+  }
+  omp_set_num_threads(saved);
 }
 
 TEST(Baselines, SS03RecoversAKnownMapWithoutNoise) {
