@@ -307,8 +307,8 @@ std::vector<Eigen::Vector3f> CasterBounce::Gather(const std::vector<Eigen::Vecto
   std::vector<Eigen::Vector3f> out(points.size());
   for (size_t begin = 0; begin < points.size(); begin += kChunk) {
     const size_t end = std::min(points.size(), begin + kChunk);
-    const Eigen::MatrixXf b =
-        RowParallelProduct(FormFactors(std::vector<Eigen::Vector3d>(points.begin() + begin, points.begin() + end)), patch_radiance);
+    const Eigen::MatrixXf k = FormFactors(std::vector<Eigen::Vector3d>(points.begin() + begin, points.begin() + end));
+    const Eigen::MatrixXf b = RowParallelProduct(k, patch_radiance);
     for (size_t r = begin; r < end; ++r) out[r] = b.row(static_cast<long>(r - begin)).transpose();
   }
   return out;
