@@ -92,7 +92,14 @@ Json ScoreAndWrite(const Scene& scene, const PlanePixels& pixels, const Lighting
   m["scene"] = scene.name;
   if (!est.extra.empty()) m["report"] = est.extra;
 
-  if (est.sg) WriteSgLighting(out / "lighting.json", *est.sg);
+  if (est.sg) {
+    WriteSgLighting(out / "lighting.json", *est.sg);
+  } else if (std::filesystem::exists(out / "lighting.json")) {
+    // Left as it was (nothing written is removed), but a script reading the
+    // folder would take it for this method's lighting.
+    ctx.Warn((out / "lighting.json").string() + " is from an earlier solve: " + est.method +
+             " writes envmap.exr, not an SG lighting file");
+  }
   if (!est.envmap.empty()) WriteExrWithPreview(out / "envmap.exr", est.envmap);
   // One exposure for render and photo so the previews compare by eye.
   float white = 0;

@@ -232,5 +232,28 @@ TEST(NearLight, SolveWarnsWhenTheLitPlaneFallsOff) {
   }
 }
 
+// A baseline solved into a folder that holds an earlier SG solve's
+// lighting.json leaves it as it was and says so: it is not the baseline's.
+TEST(StaleOutputs, BaselineWarnsOfAnEarlierLightingFile) {
+  TempDir tmp;
+  const fs::path scene = Synth(tmp, testing::kTinySceneSpec, "scene");
+  const fs::path out = tmp / "out";
+  const char* kWarning = "lighting.json is from an earlier solve: ss03 writes envmap.exr";
+  const std::vector<std::string> baseline = {"solve", scene.string(), "--out", out.string(), "--method", "ss03",
+                                             "--map-height", "4", "--quiet", "--threads", "2"};
+  const CliRun clean = RunCli(baseline, tmp.path(), 120);
+  ASSERT_TRUE(clean.exited && clean.code == 0) << clean.Describe();
+  EXPECT_EQ(clean.err.find(kWarning), std::string::npos) << clean.err;
+  const CliRun sg = RunCli({"solve", scene.string(), "--out", out.string(), "--budget", "fast", "--quiet",
+                            "--threads", "2"},
+                           tmp.path(), 300);
+  ASSERT_TRUE(sg.exited && sg.code == 0) << sg.Describe();
+  const std::string lighting = ReadWholeFile(out / "lighting.json");
+  const CliRun again = RunCli(baseline, tmp.path(), 120);
+  ASSERT_TRUE(again.exited && again.code == 0) << again.Describe();
+  EXPECT_NE(again.err.find(kWarning), std::string::npos) << again.err;
+  EXPECT_EQ(ReadWholeFile(out / "lighting.json"), lighting);
+}
+
 }  // namespace
 }  // namespace shadowsg
