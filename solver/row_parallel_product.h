@@ -30,7 +30,7 @@ inline Eigen::MatrixXf RowParallelProduct(const Eigen::Ref<const Eigen::MatrixXf
       const long begin = i * row_block, n = std::min(row_block, rows - begin);
       out.middleRows(begin, n).noalias() = a.middleRows(begin, n) * b;
     }
-  } else if (cols > kFewColumns && cols > kColumnBlock) {
+  } else if (cols > kColumnBlock) {
     const long col_blocks = (cols + kColumnBlock - 1) / kColumnBlock;
 #pragma omp parallel for schedule(static)
     for (long i = 0; i < col_blocks; ++i) {

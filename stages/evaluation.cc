@@ -94,7 +94,7 @@ Json ScoreAndWrite(const Scene& scene, const PlanePixels& pixels, const Lighting
 
   if (est.sg) {
     WriteSgLighting(out / "lighting.json", *est.sg);
-  } else if (std::filesystem::exists(out / "lighting.json")) {
+  } else if (fs::exists(out / "lighting.json")) {
     // Left as it was (nothing written is removed), but a script reading the
     // folder would take it for this method's lighting.
     ctx.Warn((out / "lighting.json").string() + " is from an earlier solve: " + est.method +
