@@ -1,9 +1,9 @@
 #include "solver/cosine_integral.h"
+#include "solver/cosine_table.h"
 
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <mutex>
 
 namespace shadowsg {
 namespace {
@@ -154,49 +154,11 @@ CosineIntegral SgCosineIntegral(double lambda, double c) {
   return r;
 }
 
-namespace {
-
-// The table holds C lambda / (2 pi (1 - e^{-2 lambda})), C over the lobe's
-// power: bounded and smooth in both arguments.
-constexpr int kTableLambdas = 64, kTableCosines = 129;
-constexpr double kTableLogMin = -4.6, kTableLogMax = 9.3;  // lambda 0.01 .. 1.1e4
-
-// Rows are filled on first use (129 Value calls, a few ms a row): a solve
-// touches the rows of its sharpness values only, not all 64 (~0.15 s of
-// Value calls on one core, which every `solve` process paid up front).
-class CosineTable {
- public:
-  const float* Row(int l) {
-    std::call_once(filled_[l], [this, l] { Fill(l); });
-    return &f_[l * kTableCosines];
-  }
-
- private:
-  void Fill(int l) {
-    const double lambda = std::exp(kTableLogMin + (kTableLogMax - kTableLogMin) * l / (kTableLambdas - 1));
-    for (int k = 0; k < kTableCosines; ++k) {
-      const double c = -1 + 2.0 * k / (kTableCosines - 1);
-      f_[l * kTableCosines + k] = static_cast<float>(Value(lambda, c) * lambda / (2 * M_PI * -std::expm1(-2 * lambda)));
-    }
-  }
-  std::array<float, kTableLambdas * kTableCosines> f_;
-  std::array<std::once_flag, kTableLambdas> filled_;
-};
-
-}  // namespace
-
-double SgCosineIntegralTabulated(double lambda, double c) {
-  static CosineTable table;
-  const double power = 2 * M_PI * -std::expm1(-2 * lambda) / lambda;
-  const double x = std::clamp((std::log(lambda) - kTableLogMin) / (kTableLogMax - kTableLogMin), 0.0, 1.0) *
-                   (kTableLambdas - 1);
-  const double y = (std::clamp(c, -1.0, 1.0) + 1) / 2 * (kTableCosines - 1);
-  const int l = std::min(static_cast<int>(x), kTableLambdas - 2), k = std::min(static_cast<int>(y), kTableCosines - 2);
-  const double fx = x - l, fy = y - k;
-  const float* f0 = table.Row(l);
-  const float* f1 = table.Row(l + 1);
-  const double v = (1 - fx) * ((1 - fy) * f0[k] + fy * f0[k + 1]) + fx * ((1 - fy) * f1[k] + fy * f1[k + 1]);
-  return power * v;
+double SgCosineTableEntry(int l, int k) {
+  const double lambda = std::exp(kCosineTableLogMin + (kCosineTableLogMax - kCosineTableLogMin) * l /
+                                                          (kCosineTableLambdas - 1));
+  const double c = -1 + 2.0 * k / (kCosineTableCosines - 1);
+  return Value(lambda, c) * lambda / (2 * M_PI * -std::expm1(-2 * lambda));
 }
 
 }  // namespace shadowsg

@@ -20,7 +20,7 @@ CosineIntegral SgCosineIntegral(double lambda, double c);
 // central differences): renders and residuals need no more.
 double SgCosineIntegralValue(double lambda, double c);
 
-// C alone from a table built on first use (bilinear in log lambda and c, to
+// C alone from a table the build computes (solver/cosine_table.h; bilinear in log lambda and c, to
 // ~1e-3 of the lobe's power): for the many (lobe, surface) pairs of
 // solver/caster_bounce.h, where the exact quadrature would cost seconds.
 double SgCosineIntegralTabulated(double lambda, double c);

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "solver/cosine_integral.h"
+#include "solver/cosine_table.h"
 #include "solver/sg_shading.h"
 #include "solver/shadow_plane.h"
 #include "solver/ssdf.h"
@@ -81,6 +82,14 @@ TEST(CosineIntegral, TabulatedMatchesTheQuadrature) {
       EXPECT_NEAR(SgCosineIntegralTabulated(lambda, c), SgCosineIntegral(lambda, c).value, 2e-3 * power)
           << lambda << " " << c;
     }
+}
+
+TEST(CosineIntegral, BuiltTableIsTheQuadratureRoundedToFloat) {
+  // The build's generator and the solver share the quadrature's object
+  // file, so every entry must come out bit for bit.
+  for (int l = 0; l < kCosineTableLambdas; ++l)
+    for (int k = 0; k < kCosineTableCosines; ++k)
+      ASSERT_EQ(SgCosineTableRow(l)[k], static_cast<float>(SgCosineTableEntry(l, k))) << l << " " << k;
 }
 
 TEST(CosineIntegral, PaperFitIsOffAt45Degrees) {
