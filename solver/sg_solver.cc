@@ -39,6 +39,7 @@ SgSolverOptions SgSolverOptions::Budget(const std::string& name) {
     // dB (the one large gain: an interior seed), at 6-15 % of the solve on
     // six scenes (README, stop 43). The other budgets keep it.
     o.scan_rounds = 0;
+    o.pool_path_end = true;
     return o;
   }
   // Three fits and their pool (pool_restarts), on the fast dictionary: the
@@ -364,6 +365,7 @@ RefineLmSummary RefineLobes(const ShadowPlaneModel& model, const std::vector<dou
 
 struct FitResult {
   SgLighting lighting;
+  SgLighting path_end;  // the size path's last model, where a smaller one was chosen (pool_path_end)
   SgSolverSummary sum;
   double heldout_mse = 0;
 };
@@ -625,6 +627,8 @@ FitResult FinishFit(FitRun&& run, double signal, const SgSolverOptions& o) {
       }
   }
   SgLighting lighting = run.path[chosen];
+  SgLighting path_end;
+  if (o.pool_path_end && chosen + 1 < run.path.size()) path_end = run.path.back();
   // The lobe with the strongest shadow, placed by a grid search
   // (solver/sg_lobe_scan.h), kept where the held-out error falls.
   double held = run.path_mse[chosen];
@@ -651,6 +655,7 @@ FitResult FinishFit(FitRun&& run, double signal, const SgSolverOptions& o) {
   FitResult r;
   r.heldout_mse = HeldOutMse(*run.hold_model, lighting, *run.hold_targets);
   r.lighting = std::move(lighting);
+  r.path_end = std::move(path_end);
   r.sum = sum;
   return r;
 }
@@ -1018,6 +1023,14 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
       // bounce, are candidates like its own. The direct model's own pool of
       // several restarts holds nothing new.
       std::vector<FitResult> members = fits[v];
+      // A single fit's pool also offers the lobes its size path had placed
+      // beyond the chosen size (pool_path_end).
+      if (one && o.pool_path_end && !members[0].path_end.lobes.empty()) {
+        FitResult end;
+        end.lighting = members[0].path_end;
+        end.sum = members[0].sum;
+        members.push_back(std::move(end));
+      }
       if (o.pool_across_models && has_bounce(v) && nv == 2) {
         members.insert(members.end(), fits[0].begin(), fits[0].begin() + static_cast<long>(direct_fits));
         pooled_direct = static_cast<int>(direct_fits);

@@ -616,6 +616,53 @@ TEST(SgSolver, OneFitIsReplacedByItsPoolOnlyWhereTheHeldOutErrorFalls) {
   RecordProperty("replaced", replaced);
 }
 
+TEST(SgSolver, OneFitsPoolOffersTheLobesItsPathPlacedBeyondTheChosenSize) {
+  // The pool's lobes keep their axes, so with no sharpness copies and no sky
+  // every pooled axis is a fit's or, with pool_path_end, one of the path's
+  // last model (placed before the final refinement moved the fit's own).
+  const ShadowPlaneModel model = SgTestModel(64);
+  const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, Cases()[1].truth);
+  auto has_axis = [](const SgLighting& l, const Eigen::Vector3d& axis) {
+    for (const SgLobe& lobe : l.lobes)
+      if (lobe.axis == axis) return true;
+    return false;
+  };
+  int from_path_end = 0;
+  for (uint64_t seed : {1, 2, 3, 4}) {
+    SgSolverOptions o = SgSolverOptions::Budget("fast");
+    ASSERT_TRUE(o.pool_path_end);
+    o.fit_pixels = 600;
+    o.holdout_pixels = 200;
+    o.seed = seed;
+    o.pool_sharpness = {0.5};  // a single fit is pooled only with copies to offer
+    o.pool_sky_lobe = false;
+    o.pool_sky_basis = 0;
+    o.pool_restarts = false;
+    SgSolverSummary fit_sum, off_sum, on_sum;
+    const SgLighting fit = SolveSg(model, targets, o, &fit_sum);
+    o.pool_restarts = true;
+    o.pool_path_end = false;
+    const SgLighting off = SolveSg(model, targets, o, &off_sum);
+    o.pool_path_end = true;
+    const SgLighting on = SolveSg(model, targets, o, &on_sum);
+    EXPECT_EQ(on_sum.heldout_mse, fit_sum.heldout_mse);  // the same size path
+    EXPECT_EQ(on_sum.heldout_mse, off_sum.heldout_mse);
+    for (const SgLobe& lobe : off.lobes)
+      EXPECT_TRUE(has_axis(fit, lobe.axis) || !off_sum.pooled) << "seed " << seed;
+    if (!on_sum.pooled) {
+      EXPECT_EQ(on_sum.restart_heldout_mse, fit_sum.restart_heldout_mse);
+      continue;
+    }
+    // Replaced only where the pool's held-out error is lower.
+    EXPECT_LT(on_sum.restart_heldout_mse[0], fit_sum.restart_heldout_mse[0]);
+    bool foreign = false;
+    for (const SgLobe& lobe : on.lobes) foreign |= !has_axis(fit, lobe.axis);
+    from_path_end += foreign;
+  }
+  EXPECT_GE(from_path_end, 1);
+  RecordProperty("from_path_end", from_path_end);
+}
+
 // The size path takes lobes in the reverse order of backward elimination: a
 // low sun whose shadow the image needs comes before half of a sky that the
 // other half can stand in for, although each half lights the plane more
