@@ -1,9 +1,10 @@
 #include "solver/cosine_integral.h"
-#include "solver/cosine_table.h"
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+
+#include "solver/cosine_table.h"
 
 namespace shadowsg {
 namespace {

@@ -20,9 +20,10 @@ CosineIntegral SgCosineIntegral(double lambda, double c);
 // central differences): renders and residuals need no more.
 double SgCosineIntegralValue(double lambda, double c);
 
-// C alone from a table the build computes (solver/cosine_table.h; bilinear in log lambda and c, to
-// ~1e-3 of the lobe's power): for the many (lobe, surface) pairs of
-// solver/caster_bounce.h, where the exact quadrature would cost seconds.
+// C alone from a table the build computes (solver/cosine_table.h;
+// bilinear in log lambda and c, to ~1e-3 of the lobe's power): for the many
+// (lobe, surface) pairs of solver/caster_bounce.h, where the exact
+// quadrature would cost seconds.
 double SgCosineIntegralTabulated(double lambda, double c);
 
 }  // namespace shadowsg

@@ -1026,9 +1026,8 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
       // A single fit's pool also offers the lobes its size path had placed
       // beyond the chosen size (pool_path_end).
       if (one && o.pool_path_end && !members[0].path_end.lobes.empty()) {
-        FitResult end;
+        FitResult end;  // only its lobes are pooled
         end.lighting = members[0].path_end;
-        end.sum = members[0].sum;
         members.push_back(std::move(end));
       }
       if (o.pool_across_models && has_bounce(v) && nv == 2) {
