@@ -617,9 +617,10 @@ TEST(SgSolver, OneFitIsReplacedByItsPoolOnlyWhereTheHeldOutErrorFalls) {
 }
 
 TEST(SgSolver, OneFitsPoolOffersTheLobesItsPathPlacedBeyondTheChosenSize) {
-  // The pool's lobes keep their axes, so with no sharpness copies and no sky
-  // every pooled axis is a fit's or, with pool_path_end, one of the path's
-  // last model (placed before the final refinement moved the fit's own).
+  // The pool's lobes keep their axes (a sharpness copy its lobe's), so with
+  // no sky lobes every pooled axis is the fit's or, with pool_path_end, one
+  // of the path's last model (placed before the final refinement moved the
+  // fit's own).
   const ShadowPlaneModel model = SgTestModel(64);
   const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, Cases()[1].truth);
   auto has_axis = [](const SgLighting& l, const Eigen::Vector3d& axis) {
