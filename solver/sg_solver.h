@@ -278,7 +278,7 @@ struct SgSolverSummary {
 // when it trails 5x after two steps or 2x after four; once both paths have
 // ended (paths_ended), when it trails by more than 8 %: only the leader gets
 // the grid search and the final refinement. The model without the bounce
-// (direct) also stops when it trails by 15 % after four steps.
+// (direct) also stops when it trails by 10 % after four steps.
 bool BounceRaceDrops(size_t steps, size_t other_steps, double best, double other_best, bool paths_ended = false,
                      bool direct = false);
 

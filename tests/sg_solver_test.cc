@@ -740,11 +740,11 @@ TEST(SgSolver, BounceRaceDropsOnlyAClearLoser) {
   EXPECT_TRUE(BounceRaceDrops(6, 9, 1.09, 1.0, /*paths_ended=*/true));
   EXPECT_FALSE(BounceRaceDrops(6, 9, 1.07, 1.0, /*paths_ended=*/true));
   EXPECT_FALSE(BounceRaceDrops(6, 9, 1.0, 1.09, /*paths_ended=*/true));
-  // The model without the bounce stops 15 % behind after four steps; the
+  // The model without the bounce stops 10 % behind after four steps; the
   // one with it keeps the wide margins (its path falls late).
-  EXPECT_TRUE(BounceRaceDrops(4, 4, 1.16, 1.0, false, /*direct=*/true));
-  EXPECT_FALSE(BounceRaceDrops(4, 4, 1.16, 1.0, false, /*direct=*/false));
-  EXPECT_FALSE(BounceRaceDrops(4, 4, 1.14, 1.0, false, /*direct=*/true));
+  EXPECT_TRUE(BounceRaceDrops(4, 4, 1.11, 1.0, false, /*direct=*/true));
+  EXPECT_FALSE(BounceRaceDrops(4, 4, 1.11, 1.0, false, /*direct=*/false));
+  EXPECT_FALSE(BounceRaceDrops(4, 4, 1.09, 1.0, false, /*direct=*/true));
   EXPECT_FALSE(BounceRaceDrops(3, 3, 1.9, 1.0, false, /*direct=*/true));
   EXPECT_FALSE(BounceRaceDrops(4, 3, 1.9, 1.0, false, /*direct=*/true));
 }
