@@ -800,9 +800,9 @@ bool BounceRaceDrops(size_t steps, size_t other_steps, double best, double other
   // seeds, each model's held-out path logged; stop 51), that rule stopped
   // only models that the race's end dropped anyway. (15 %, the rule before:
   // the same, with the direct model 0.06-0.07 s longer on the interior and
-  // the cone scene. 8 % after four steps, or after three, stopped three
-  // models that had finished: the cone scene's direct model trails by 7-10 %
-  // there and is pooled with the bounce.) The model with the bounce does
+  // the cone scene. 8 % after four steps stopped three models that had
+  // finished, after three steps four: the cone scene's direct model trails
+  // by 7-10 % there and is pooled with the bounce.) The model with the bounce does
   // catch up from there (three suns, sunsky: its path falls late), so it
   // keeps the wide margins.
   struct Rule {

@@ -724,7 +724,7 @@ TEST(SgSolver, FastBudgetRunsNoGridSearch) {
 }
 
 // A clear loser stops after two steps, a close one only after four at 2x
-// (1.15x for the model without the bounce); neither before the other model
+// (1.1x for the model without the bounce); neither before the other model
 // has taken as many steps.
 TEST(SgSolver, BounceRaceDropsOnlyAClearLoser) {
   EXPECT_FALSE(BounceRaceDrops(1, 1, 100.0, 1.0));
