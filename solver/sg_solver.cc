@@ -802,9 +802,9 @@ bool BounceRaceDrops(size_t steps, size_t other_steps, double best, double other
   // the same, with the direct model 0.06-0.07 s longer on the interior and
   // the cone scene. 8 % after four steps stopped three models that had
   // finished, after three steps four: the cone scene's direct model trails
-  // by 7-10 % there and is pooled with the bounce.) The model with the bounce does
-  // catch up from there (three suns, sunsky: its path falls late), so it
-  // keeps the wide margins.
+  // by 7-10 % there and is pooled with the bounce.) The model with the
+  // bounce does catch up from there (three suns, sunsky: its path falls
+  // late), so it keeps the wide margins.
   struct Rule {
     size_t steps;
     double margin;
