@@ -147,7 +147,8 @@ struct SgSolverOptions {
   // lobes streak the shade beside the object (pub_torus_sunrise), where a
   // blend of wider ones lies smoothly. 10 seeds: every sunrise seed up by
   // 0.23-0.56 dB (fast) and 0.13-0.27 (balanced), the interior's balanced
-  // spread 0.30 -> 0.23, at 0.98-1.07x the time (README).
+  // spread 0.30 -> 0.23, at 0.98-1.07x the time (README). `balanced` and
+  // `best` add 4x (Budget).
   std::vector<double> pool_sharpness = {0.25, 0.5, 2};
   // The pool also offers the flattest lobe the refinement allows (sharpness
   // 0.05) about the plane's normal: an almost even sky. On pub_torus_sunsky

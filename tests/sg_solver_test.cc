@@ -538,6 +538,27 @@ TEST(SgSolver, PoolBlendsSharpnessCopies) {
   EXPECT_NE(error.find("pool_sharpness"), std::string::npos);
 }
 
+// `balanced` and `best` pool their restarts with a copy at 4x the sharpness
+// too (a sun fitted too wide: pub_torus_sunsky); `fast`'s one fit does not.
+TEST(SgSolver, RestartPoolsOfferFourTimesSharper) {
+  const ShadowPlaneModel model = SgTestModel(48);
+  SgLighting truth;
+  truth.lobes.push_back({Eigen::Vector3d(0.4, 0.3, 0.87).normalized(), 10.0, Eigen::Vector3d(30, 28, 25)});
+  const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, truth);
+  const std::vector<double> weight(model.points.size(), 1.0);
+  SgLighting fit = truth;
+  fit.lobes[0].sharpness = 2.5;
+  auto pooled_psnr = [&](const std::string& budget) {
+    SgSolverOptions o = SgSolverOptions::Budget(budget);
+    o.pool_sky_lobe = false;
+    o.pool_sky_basis = 0;
+    return Psnr(RenderShadowPlane(model, PoolLobes(model, weight, targets, {fit}, model, targets, o)), targets);
+  };
+  EXPECT_LT(pooled_psnr("fast"), 50.0);  // 34.6: the 2x copy, sharpness 5
+  EXPECT_GT(pooled_psnr("balanced"), 80.0);
+  EXPECT_GT(pooled_psnr("best"), 80.0);
+}
+
 // With the casters' bounce: the pool's systems share one bounce irradiance
 // of its lobes, which must follow the lobes into elimination order (a lobe
 // the light lacks goes last, so that order is not the input's).
