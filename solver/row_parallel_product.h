@@ -61,4 +61,24 @@ Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> ColumnParallelTransposePro
   return out;
 }
 
+// a' * v on the threads, in blocks of 128 of a's columns: the dictionary
+// fit's gradient over every atom (800 x 6000 in `fast`), which Eigen runs on
+// one thread. Eigen's kernel sums each of a's columns in the same order
+// whatever block it is in, as long as the blocks start at multiples of 8, so
+// this is the single product bit for bit.
+inline Eigen::VectorXf ColumnParallelTransposeVectorProduct(const Eigen::Ref<const Eigen::MatrixXf>& a,
+                                                            const Eigen::Ref<const Eigen::VectorXf>& v) {
+  constexpr long kBlock = 128;
+  static_assert(kBlock % 8 == 0, "blocks must start where Eigen's 8-column groups do");
+  const long cols = a.cols(), blocks = (cols + kBlock - 1) / kBlock;
+  Eigen::VectorXf out(cols);
+  if (blocks < 2) return out.noalias() = a.transpose() * v, out;
+#pragma omp parallel for schedule(dynamic, 1)
+  for (long i = 0; i < blocks; ++i) {
+    const long begin = i * kBlock, n = std::min(kBlock, cols - begin);
+    out.segment(begin, n).noalias() = a.middleCols(begin, n).transpose() * v;
+  }
+  return out;
+}
+
 }  // namespace shadowsg

@@ -521,7 +521,7 @@ FitRun StartFit(const FitData& d, bool bounce, const ShadowPlaneModel& hold_mode
     Eigen::VectorXf r = bsum;
     std::vector<char> in(na, 0);
     while (static_cast<int>(support.size()) < o.max_atoms) {
-      const Eigen::VectorXf grad = G.transpose() * r.cwiseProduct(wmean);
+      const Eigen::VectorXf grad = ColumnParallelTransposeVectorProduct(G, r.cwiseProduct(wmean));
       long pick = -1;
       float best = 0;
       for (long j = 0; j < na; ++j)

@@ -4,6 +4,8 @@
 #include <omp.h>
 
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace shadowsg {
 namespace {
@@ -78,6 +80,29 @@ TEST(ColumnParallelTransposeProduct, SameOnAnyThreadCount) {
     omp_set_num_threads(threads);
     EXPECT_EQ((ColumnParallelTransposeProduct<float>(a, a) - first).cwiseAbs().maxCoeff(), 0.0f) << threads;
     EXPECT_EQ((ColumnParallelTransposeProduct<double>(ad, ad) - first_d).cwiseAbs().maxCoeff(), 0.0) << threads;
+  }
+  omp_set_num_threads(saved);
+  Eigen::setNbThreads(saved_eigen);
+}
+
+// a' * v in blocks of a's columns: the single product bit for bit, on any
+// number of threads, whatever the depth (the fit pixels) and the column
+// count's remainder by Eigen's 8, 4 and 2-column groups.
+TEST(ColumnParallelTransposeVectorProduct, SameAsOneProductBitForBit) {
+  const int saved = omp_get_max_threads(), saved_eigen = Eigen::nbThreads();
+  Eigen::setNbThreads(1);
+  srand(11);
+  for (const auto& [rows, cols] : std::vector<std::pair<long, long>>{
+           {6000, 800}, {5999, 803}, {6003, 805}, {16384, 2400}, {777, 130}, {100, 7}}) {
+    const Eigen::MatrixXf a = Eigen::MatrixXf::Random(rows, cols);
+    const Eigen::VectorXf v = Eigen::VectorXf::Random(rows);
+    const Eigen::VectorXf one = a.transpose() * v;
+    for (int threads : {1, 2, 3}) {
+      omp_set_num_threads(threads);
+      const Eigen::VectorXf split = ColumnParallelTransposeVectorProduct(a, v);
+      ASSERT_EQ(split.size(), cols);
+      EXPECT_EQ((split - one).cwiseAbs().maxCoeff(), 0.0f) << rows << "x" << cols << ", " << threads << " threads";
+    }
   }
   omp_set_num_threads(saved);
   Eigen::setNbThreads(saved_eigen);
