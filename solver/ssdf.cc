@@ -323,6 +323,25 @@ inline Cone LeafConeAt(const LeafSpheres& l, size_t i, const double* x) {
   return LeafCone(l.data.data() + LeafSpheres::Block(i), i % LeafSpheres::kLanes, x[0], x[1], x[2]);
 }
 
+// For the block of leaves starting at `begin` seen from x: each leaf's cone
+// half-angle (alpha, -inf for an empty slot) and its angle from the unit
+// direction u plus that half-angle, the term of TightenBounds' cap; the same
+// arithmetic as LeafConeAt and UnitAngle, lane by lane.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target_clones("avx2,fma", "default")))
+#endif
+void LeafCapTerms(const LeafSpheres& l, size_t begin, const double* x, float ux, float uy, float uz, float* term,
+                  float* alpha) {
+  const double* block = l.data.data() + LeafSpheres::Block(begin);
+  const double px = x[0], py = x[1], pz = x[2];
+#pragma omp simd
+  for (size_t j = 0; j < LeafSpheres::kLanes; ++j) {
+    const Cone c = LeafCone(block, j, px, py, pz);
+    term[j] = UnitAngle(ux, uy, uz, c.ux, c.uy, c.uz) + c.alpha;
+    alpha[j] = c.alpha;
+  }
+}
+
 // Seen from one point, the cones of a node's children lie inside the cap
 // around the node's direction u of half-angle max_k(angle(u, u_k) + alpha_k),
 // so that cap bounds the subtree too; it is often much narrower than the
@@ -336,6 +355,17 @@ void TightenBounds(const FlatTrees& f, const double* x, const ConeTable* leaf_ta
       if (!(t->alpha(i) > -kInfF)) continue;  // empty subtree
       const size_t first = local * tr.branching + 1;
       float cap = 0;
+      if (!leaf_table && first >= tr.leaf_begin && tr.branching == static_cast<int>(LeafSpheres::kLanes) &&
+          tr.Leaf(first) % LeafSpheres::kLanes == 0) {
+        // A whole block of leaves: their cones at once (seven eighths of
+        // the children a point's table visits).
+        float term[LeafSpheres::kLanes], alpha[LeafSpheres::kLanes];
+        LeafCapTerms(f.leaves, tr.Leaf(first), x, t->ux(i), t->uy(i), t->uz(i), term, alpha);
+        for (size_t k = 0; k < LeafSpheres::kLanes; ++k)
+          if (alpha[k] > -kInfF) cap = std::max(cap, term[k]);
+        t->alpha(i) = std::min(t->alpha(i), cap + kCapSlack);
+        continue;
+      }
       for (int k = 0; k < tr.branching; ++k) {
         const size_t c = first + k;
         const ConeTable* from = c >= tr.leaf_begin ? leaf_table : t;
