@@ -71,8 +71,8 @@ inline Eigen::VectorXf ColumnParallelTransposeVectorProduct(const Eigen::Ref<con
   constexpr long kBlock = 128;
   static_assert(kBlock % 8 == 0, "blocks must start where Eigen's 8-column groups do");
   const long cols = a.cols(), blocks = (cols + kBlock - 1) / kBlock;
+  if (blocks < 2) return a.transpose() * v;
   Eigen::VectorXf out(cols);
-  if (blocks < 2) return out.noalias() = a.transpose() * v, out;
 #pragma omp parallel for schedule(dynamic, 1)
   for (long i = 0; i < blocks; ++i) {
     const long begin = i * kBlock, n = std::min(kBlock, cols - begin);
