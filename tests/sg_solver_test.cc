@@ -496,12 +496,19 @@ TEST(SgSolver, PoolOffersASkyBrighterToOneSide) {
   EXPECT_NE(error.find("pool_sky_basis"), std::string::npos);
 }
 
+// One lobe of sharpness 10: the light of the pool's sharpness-copy tests,
+// whose fits have its axis at another sharpness.
+SgLighting SharpnessTestLight() {
+  SgLighting l;
+  l.lobes.push_back({Eigen::Vector3d(0.4, 0.3, 0.87).normalized(), 10.0, Eigen::Vector3d(30, 28, 25)});
+  return l;
+}
+
 // A fit whose lobe has the right axis but not the right sharpness: the pool
 // offers it at other sharpness values too, and NNLS takes the one that fits.
 TEST(SgSolver, PoolBlendsSharpnessCopies) {
   const ShadowPlaneModel model = SgTestModel(48);
-  SgLighting truth;
-  truth.lobes.push_back({Eigen::Vector3d(0.4, 0.3, 0.87).normalized(), 10.0, Eigen::Vector3d(30, 28, 25)});
+  const SgLighting truth = SharpnessTestLight();
   const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, truth);
   const std::vector<double> weight(model.points.size(), 1.0);
   SgLighting fit = truth;
@@ -542,8 +549,7 @@ TEST(SgSolver, PoolBlendsSharpnessCopies) {
 // too (a sun fitted too wide: pub_torus_sunsky); `fast`'s one fit does not.
 TEST(SgSolver, RestartPoolsOfferFourTimesSharper) {
   const ShadowPlaneModel model = SgTestModel(48);
-  SgLighting truth;
-  truth.lobes.push_back({Eigen::Vector3d(0.4, 0.3, 0.87).normalized(), 10.0, Eigen::Vector3d(30, 28, 25)});
+  const SgLighting truth = SharpnessTestLight();
   const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, truth);
   const std::vector<double> weight(model.points.size(), 1.0);
   SgLighting fit = truth;
