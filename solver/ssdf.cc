@@ -363,17 +363,16 @@ void TightenBounds(const FlatTrees& f, const double* x, const ConeTable* leaf_ta
         LeafCapTerms(f.leaves, tr.Leaf(first), x, t->ux(i), t->uy(i), t->uz(i), term, alpha);
         for (size_t k = 0; k < LeafSpheres::kLanes; ++k)
           if (alpha[k] > -kInfF) cap = std::max(cap, term[k]);
-        t->alpha(i) = std::min(t->alpha(i), cap + kCapSlack);
-        continue;
-      }
-      for (int k = 0; k < tr.branching; ++k) {
-        const size_t c = first + k;
-        const ConeTable* from = c >= tr.leaf_begin ? leaf_table : t;
-        const size_t at = c >= tr.leaf_begin ? tr.Leaf(c) : tr.Inner(c);
-        const Cone child = from ? Cone{from->ux(at), from->uy(at), from->uz(at), from->alpha(at)}
-                                : LeafConeAt(f.leaves, at, x);
-        if (!(child.alpha > -kInfF)) continue;
-        cap = std::max(cap, UnitAngle(t->ux(i), t->uy(i), t->uz(i), child.ux, child.uy, child.uz) + child.alpha);
+      } else {
+        for (int k = 0; k < tr.branching; ++k) {
+          const size_t c = first + k;
+          const ConeTable* from = c >= tr.leaf_begin ? leaf_table : t;
+          const size_t at = c >= tr.leaf_begin ? tr.Leaf(c) : tr.Inner(c);
+          const Cone child = from ? Cone{from->ux(at), from->uy(at), from->uz(at), from->alpha(at)}
+                                  : LeafConeAt(f.leaves, at, x);
+          if (!(child.alpha > -kInfF)) continue;
+          cap = std::max(cap, UnitAngle(t->ux(i), t->uy(i), t->uz(i), child.ux, child.uy, child.uz) + child.alpha);
+        }
       }
       t->alpha(i) = std::min(t->alpha(i), cap + kCapSlack);
     }

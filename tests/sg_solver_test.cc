@@ -496,23 +496,29 @@ TEST(SgSolver, PoolOffersASkyBrighterToOneSide) {
   EXPECT_NE(error.find("pool_sky_basis"), std::string::npos);
 }
 
-// One lobe of sharpness 10: the light of the pool's sharpness-copy tests,
-// whose fits have its axis at another sharpness.
-SgLighting SharpnessTestLight() {
-  SgLighting l;
-  l.lobes.push_back({Eigen::Vector3d(0.4, 0.3, 0.87).normalized(), 10.0, Eigen::Vector3d(30, 28, 25)});
-  return l;
-}
+// The pool's sharpness-copy tests: one lobe of sharpness 10 renders the
+// targets, and the fit has its axis and amplitude at another sharpness.
+struct SharpnessCase {
+  ShadowPlaneModel model = SgTestModel(48);
+  std::vector<Eigen::Vector3f> targets;
+  std::vector<double> weight;
+  SgLighting fit;
+  explicit SharpnessCase(double fit_sharpness) {
+    fit.lobes.push_back({Eigen::Vector3d(0.4, 0.3, 0.87).normalized(), 10.0, Eigen::Vector3d(30, 28, 25)});
+    targets = RenderShadowPlane(model, fit);
+    weight.assign(model.points.size(), 1.0);
+    fit.lobes[0].sharpness = fit_sharpness;
+  }
+};
 
 // A fit whose lobe has the right axis but not the right sharpness: the pool
 // offers it at other sharpness values too, and NNLS takes the one that fits.
 TEST(SgSolver, PoolBlendsSharpnessCopies) {
-  const ShadowPlaneModel model = SgTestModel(48);
-  const SgLighting truth = SharpnessTestLight();
-  const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, truth);
-  const std::vector<double> weight(model.points.size(), 1.0);
-  SgLighting fit = truth;
-  fit.lobes[0].sharpness = 40;
+  SharpnessCase c(40);
+  const ShadowPlaneModel& model = c.model;
+  const std::vector<Eigen::Vector3f>& targets = c.targets;
+  const std::vector<double>& weight = c.weight;
+  SgLighting& fit = c.fit;
   SgSolverOptions o = SgSolverOptions::Budget("balanced");
   o.pool_sharpness = {};
   o.pool_sky_lobe = false;  // PoolOffersAnEvenSky
@@ -548,17 +554,13 @@ TEST(SgSolver, PoolBlendsSharpnessCopies) {
 // `balanced` and `best` pool their restarts with a copy at 4x the sharpness
 // too (a sun fitted too wide: pub_torus_sunsky); `fast`'s one fit does not.
 TEST(SgSolver, RestartPoolsOfferFourTimesSharper) {
-  const ShadowPlaneModel model = SgTestModel(48);
-  const SgLighting truth = SharpnessTestLight();
-  const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, truth);
-  const std::vector<double> weight(model.points.size(), 1.0);
-  SgLighting fit = truth;
-  fit.lobes[0].sharpness = 2.5;
+  const SharpnessCase c(2.5);
   auto pooled_psnr = [&](const std::string& budget) {
     SgSolverOptions o = SgSolverOptions::Budget(budget);
     o.pool_sky_lobe = false;
     o.pool_sky_basis = 0;
-    return Psnr(RenderShadowPlane(model, PoolLobes(model, weight, targets, {fit}, model, targets, o)), targets);
+    const SgLighting pooled = PoolLobes(c.model, c.weight, c.targets, {c.fit}, c.model, c.targets, o);
+    return Psnr(RenderShadowPlane(c.model, pooled), c.targets);
   };
   EXPECT_LT(pooled_psnr("fast"), 50.0);  // 34.6: the 2x copy, sharpness 5
   EXPECT_GT(pooled_psnr("balanced"), 80.0);
