@@ -323,23 +323,37 @@ inline Cone LeafConeAt(const LeafSpheres& l, size_t i, const double* x) {
   return LeafCone(l.data.data() + LeafSpheres::Block(i), i % LeafSpheres::kLanes, x[0], x[1], x[2]);
 }
 
-// For the block of leaves starting at `begin` seen from x: each leaf's cone
-// half-angle (alpha, -inf for an empty slot) and its angle from the unit
-// direction u plus that half-angle, the term of TightenBounds' cap; the same
-// arithmetic as LeafConeAt and UnitAngle, lane by lane.
+// The cones of the block of leaves starting at `begin` (a multiple of kLanes)
+// seen from x, written as a ConeTable block (kLanes each of ux, uy, uz,
+// alpha): the same arithmetic as LeafConeAt, lane by lane.
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 __attribute__((target_clones("avx2,fma", "default")))
 #endif
-void LeafCapTerms(const LeafSpheres& l, size_t begin, const double* x, float ux, float uy, float uz, float* term,
-                  float* alpha) {
+void LeafConeBlock(const LeafSpheres& l, size_t begin, const double* x, float* cones) {
+  constexpr size_t L = LeafSpheres::kLanes;
   const double* block = l.data.data() + LeafSpheres::Block(begin);
   const double px = x[0], py = x[1], pz = x[2];
 #pragma omp simd
-  for (size_t j = 0; j < LeafSpheres::kLanes; ++j) {
+  for (size_t j = 0; j < L; ++j) {
     const Cone c = LeafCone(block, j, px, py, pz);
-    term[j] = UnitAngle(ux, uy, uz, c.ux, c.uy, c.uz) + c.alpha;
-    alpha[j] = c.alpha;
+    cones[j] = c.ux;
+    cones[L + j] = c.uy;
+    cones[2 * L + j] = c.uz;
+    cones[3 * L + j] = c.alpha;
   }
+}
+
+// For a block of cones (as LeafConeBlock writes them), each cone's angle from
+// the unit direction u plus its half-angle: the term of TightenBounds' cap,
+// the same arithmetic as UnitAngle, lane by lane.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target_clones("avx2,fma", "default")))
+#endif
+void ConeCapTerms(const float* cones, float ux, float uy, float uz, float* term) {
+  constexpr size_t L = ConeTable::kLanes;
+#pragma omp simd
+  for (size_t j = 0; j < L; ++j)
+    term[j] = UnitAngle(ux, uy, uz, cones[j], cones[L + j], cones[2 * L + j]) + cones[3 * L + j];
 }
 
 // Seen from one point, the cones of a node's children lie inside the cap
@@ -355,14 +369,19 @@ void TightenBounds(const FlatTrees& f, const double* x, const ConeTable* leaf_ta
       if (!(t->alpha(i) > -kInfF)) continue;  // empty subtree
       const size_t first = local * tr.branching + 1;
       float cap = 0;
-      if (!leaf_table && first >= tr.leaf_begin && tr.branching == static_cast<int>(LeafSpheres::kLanes) &&
+      if (first >= tr.leaf_begin && tr.branching == static_cast<int>(LeafSpheres::kLanes) &&
           tr.Leaf(first) % LeafSpheres::kLanes == 0) {
-        // A whole block of leaves: their cones at once (seven eighths of
-        // the children a point's table visits).
-        float term[LeafSpheres::kLanes], alpha[LeafSpheres::kLanes];
-        LeafCapTerms(f.leaves, tr.Leaf(first), x, t->ux(i), t->uy(i), t->uz(i), term, alpha);
-        for (size_t k = 0; k < LeafSpheres::kLanes; ++k)
-          if (alpha[k] > -kInfF) cap = std::max(cap, term[k]);
+        // A whole block of leaves (seven eighths of the children a point's
+        // table visits): their cones at once, or the leaf table's block.
+        constexpr size_t L = LeafSpheres::kLanes;
+        alignas(32) float block[4 * L];
+        const float* cones = block;
+        if (leaf_table) cones = leaf_table->data.data() + ConeTable::At(tr.Leaf(first), 0);
+        else LeafConeBlock(f.leaves, tr.Leaf(first), x, block);
+        float term[L];
+        ConeCapTerms(cones, t->ux(i), t->uy(i), t->uz(i), term);
+        for (size_t k = 0; k < L; ++k)
+          if (cones[3 * L + k] > -kInfF) cap = std::max(cap, term[k]);
       } else {
         for (int k = 0; k < tr.branching; ++k) {
           const size_t c = first + k;
@@ -381,11 +400,10 @@ void TightenBounds(const FlatTrees& f, const double* x, const ConeTable* leaf_ta
 
 // The point's cones of the inner nodes and, with leaf_table, of the leaves.
 void FillConeTable(const FlatTrees& f, const Eigen::Vector3d& x, ConeTable* t, ConeTable* leaf_table = nullptr) {
+  // (The blocks' padding lanes get empty cones.)
   if (leaf_table)
-    for (size_t i = 0; i < f.leaves.count; ++i) {
-      const Cone c = LeafConeAt(f.leaves, i, x.data());
-      leaf_table->Set(i, Eigen::Vector3f(c.ux, c.uy, c.uz), c.alpha);
-    }
+    for (size_t b = 0; b < f.leaves.count; b += LeafSpheres::kLanes)
+      LeafConeBlock(f.leaves, b, x.data(), leaf_table->data.data() + ConeTable::At(b, 0));
   const size_t n = f.centre.size();
   for (size_t i = 0; i < n; ++i) {
     const double r = f.radius[i];
