@@ -51,7 +51,7 @@ void BM_SignedAngles(benchmark::State& state) {
   for (auto _ : state) SignedAngles(trees, points, axes, &theta);
   state.SetItemsProcessed(state.iterations() * points.size() * axes.size());
 }
-BENCHMARK(BM_SignedAngles)->Args({4096, 300})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_SignedAngles)->Args({4096, 300})->Args({4096, 8})->Unit(benchmark::kMillisecond);
 
 // The same with cone tables prepared once (the fit's repeated evaluations).
 void BM_PreparedCones(benchmark::State& state) {
@@ -104,7 +104,7 @@ void BM_RenderShadowPlane(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(RenderShadowPlane(model, l));
   state.SetItemsProcessed(state.iterations() * model.points.size() * l.lobes.size());
 }
-BENCHMARK(BM_RenderShadowPlane)->Args({65536, 8})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_RenderShadowPlane)->Args({65536, 8})->Args({65536, 64})->Unit(benchmark::kMillisecond);
 
 const CasterBounce& TorusBounce();
 

@@ -168,18 +168,23 @@ TEST(Ssdf, BatchMatchesSingle) {
   std::vector<Eigen::Vector3d> axes;
   for (int i = 0; i < 40; ++i) axes.push_back(RandomUnit(rng) * (i % 3 + 1));  // not all unit
   axes.push_back(Eigen::Vector3d::UnitZ());
-  for (SsdfSearch search : {SsdfSearch::kExact, SsdfSearch::kCoarseToFine}) {
-    Eigen::MatrixXf out;
-    SignedAngles(trees, points, axes, &out, search);
-    ASSERT_EQ(out.rows(), static_cast<long>(points.size()));
-    ASSERT_EQ(out.cols(), static_cast<long>(axes.size()));
-    double worst = 0;
-    for (size_t p = 0; p < points.size(); ++p)
-      for (size_t a = 0; a < axes.size(); ++a)
-        worst = std::max(worst, std::abs(out(p, a) - SignedAngleToOccluders(trees, points[p], axes[a], search)));
-    // Single precision: float rounding of directions and angles.
-    EXPECT_LT(worst, 2e-5) << (search == SsdfSearch::kExact ? "exact" : "coarse-to-fine");
-  }
+  // 41 axes: each point's table tightened; 8: the subtrees' enclosing cones.
+  std::vector<Eigen::Vector3d> few(axes.begin(), axes.begin() + 8);
+  for (SsdfSearch search : {SsdfSearch::kExact, SsdfSearch::kCoarseToFine})
+    for (const auto* some : {&axes, &few}) {
+      Eigen::MatrixXf out;
+      SignedAngles(trees, points, *some, &out, search);
+      ASSERT_EQ(out.rows(), static_cast<long>(points.size()));
+      ASSERT_EQ(out.cols(), static_cast<long>(some->size()));
+      double worst = 0;
+      for (size_t p = 0; p < points.size(); ++p)
+        for (size_t a = 0; a < some->size(); ++a)
+          worst =
+              std::max(worst, std::abs(out(p, a) - SignedAngleToOccluders(trees, points[p], (*some)[a], search)));
+      // Single precision: float rounding of directions and angles.
+      EXPECT_LT(worst, 2e-5) << (search == SsdfSearch::kExact ? "exact" : "coarse-to-fine") << ", "
+                             << some->size() << " axes";
+    }
 }
 
 TEST(Ssdf, HintsGiveTheSameAnglesAsAFreshSearch) {
