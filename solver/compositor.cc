@@ -336,15 +336,15 @@ CompositeResult CompositePreview(const Scene& scene, const LightSet& lights, con
         pixels.push_back(plane_pixel[k]);
         points.push_back(plane_point[k]);
       }
-    const std::vector<Eigen::Vector3f> without = RenderShadowPlane(PlaneModel(scene, points, trees(is_caster)), sg);
-    Report(progress, 0.4, "plane without objects");
-    const std::vector<Eigen::Vector3f> with = RenderShadowPlane(PlaneModel(scene, points, trees(is_any)), sg);
+    std::vector<Eigen::Vector3f> without, with;
+    RenderShadowPlaneAdding(PlaneModel(scene, points, trees(is_caster)), trees([&](int i) { return !is_caster(i); }),
+                            sg, &without, &with);
     for (size_t m = 0; m < pixels.size(); ++m) {
       with_local.set_rgb(pixels[m], with[m]);
       without_local.set_rgb(pixels[m], without[m]);
     }
   }
-  Report(progress, 0.6, "plane with objects");
+  Report(progress, 0.6, "plane without and with objects");
 
   // Caster pixels: their shading changes by the virtual objects' shadows.
   for (size_t c = 0; c < scene.objects.size(); ++c) {

@@ -21,8 +21,8 @@
 // Two quality levels:
 //   kPreview  closed-form SG shading (solver/shadow_plane.h, the `sg` model:
 //             exact cosine, capped occlusion) with sphere-tree visibility. Plane
-//             pixels: RenderShadowPlane with the casters' trees (without) and
-//             the casters' and virtual objects' trees (with), where the
+//             pixels: RenderShadowPlaneAdding, the casters' trees (without)
+//             and the virtual objects' trees beside them (with), where the
 //             objects' bounding cones can change the shading (elsewhere the
 //             ratio is exactly 1). Surface points
 //             (virtual objects at n x n sub-pixel rays, casters at the pixel

@@ -307,41 +307,84 @@ std::vector<Eigen::Vector3f> RenderShadowPlane(const ShadowPlaneModel& model, co
 
 namespace {
 
+// What a closed-form render of the model's points under `lighting` shades
+// with: the lobes that take part, their product lobes and visibility caps.
+struct DirectLobes {
+  std::vector<size_t> active;
+  std::vector<Eigen::Vector3d> axes;
+  std::vector<ProductLobe> products;
+  std::vector<float> caps;
+};
+DirectLobes PrepareDirectLobes(const ShadowPlaneModel& model, const SgLighting& lighting) {
+  DirectLobes d;
+  d.active = ActiveLobes(model, lighting, &d.axes);
+  for (size_t i : d.active)
+    d.products.push_back(EvalProductLobe(lighting.lobes[i].axis, lighting.lobes[i].sharpness, model.normal,
+                                         model.cosine, /*derivatives=*/false, model.max_steepness));
+  for (const ProductLobe& p : d.products) d.caps.push_back(VisibilityCap(p));
+  return d;
+}
+
+// The radiance of the model's points [begin, begin + theta.rows()) from
+// their theta (rows) and occluder cone cosines (occluder_cos[k] for point
+// begin + k), into out[begin + k].
+void ShadeDirect(const ShadowPlaneModel& model, const SgLighting& lighting, const DirectLobes& d, size_t begin,
+                 const Eigen::MatrixXf& theta, const float* occluder_cos, std::vector<Eigen::Vector3f>* out) {
+#pragma omp parallel for schedule(static)
+  for (long k = 0; k < theta.rows(); ++k) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (size_t j = 0; j < d.active.size(); ++j) {
+      const LobeShading s = ShadeLobe(d.products[j], theta(k, j), Eigen::Vector3d::Zero(),
+                                      model.cap_occlusion ? occluder_cos[k] : kNoOcclusionCap);
+      sum += s.value * lighting.lobes[d.active[j]].amplitude;
+    }
+    (*out)[begin + k] = (model.albedo[begin + k].cast<double>().cwiseProduct(sum) / M_PI).cast<float>();
+  }
+}
+
 std::vector<Eigen::Vector3f> RenderDirect(const ShadowPlaneModel& model, const SgLighting& lighting) {
   if (model.exact)
     return model.exact->Render(model.points, model.albedo, lighting, model.upper_hemisphere_only,
                                model.HasExactTable() ? model.exact_table.get() : nullptr);
-  std::vector<Eigen::Vector3d> axes;
-  const std::vector<size_t> active = ActiveLobes(model, lighting, &axes);
-  std::vector<ProductLobe> products;
-  for (size_t i : active)
-    products.push_back(EvalProductLobe(lighting.lobes[i].axis, lighting.lobes[i].sharpness, model.normal, model.cosine,
-                                       /*derivatives=*/false, model.max_steepness));
-  std::vector<float> caps;
-  for (const ProductLobe& p : products) caps.push_back(VisibilityCap(p));
+  const DirectLobes d = PrepareDirectLobes(model, lighting);
   std::vector<Eigen::Vector3f> out(model.points.size(), Eigen::Vector3f::Zero());
   Eigen::MatrixXf theta;
   const size_t chunk_size = model.HasCones() ? model.points.size() : kRenderChunk;
   for (size_t begin = 0; begin < model.points.size(); begin += chunk_size) {
     const size_t end = std::min(model.points.size(), begin + chunk_size);
     const std::vector<Eigen::Vector3d> chunk(model.points.begin() + begin, model.points.begin() + end);
-    if (model.HasCones()) model.cones.Angles(axes, &theta, nullptr, &caps, nullptr, CapSides::kBoth);
-    else SignedAnglesWithWitness(model.occluders, chunk, axes, &theta, nullptr, model.search, &caps, CapSides::kBoth);
-#pragma omp parallel for schedule(static)
-    for (long k = 0; k < static_cast<long>(chunk.size()); ++k) {
-      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-      for (size_t j = 0; j < active.size(); ++j) {
-        const LobeShading s = ShadeLobe(products[j], theta(k, j), Eigen::Vector3d::Zero(),
-                                        model.cap_occlusion ? model.occluder_cos[begin + k] : kNoOcclusionCap);
-        sum += s.value * lighting.lobes[active[j]].amplitude;
-      }
-      out[begin + k] = (model.albedo[begin + k].cast<double>().cwiseProduct(sum) / M_PI).cast<float>();
-    }
+    if (model.HasCones()) model.cones.Angles(d.axes, &theta, nullptr, &d.caps, nullptr, CapSides::kBoth);
+    else SignedAnglesWithWitness(model.occluders, chunk, d.axes, &theta, nullptr, model.search, &d.caps, CapSides::kBoth);
+    ShadeDirect(model, lighting, d, begin, theta, model.occluder_cos.data() + begin, &out);
   }
   return out;
 }
 
 }  // namespace
+
+void RenderShadowPlaneAdding(const ShadowPlaneModel& model, const std::vector<SphereTree>& more,
+                             const SgLighting& lighting, std::vector<Eigen::Vector3f>* without,
+                             std::vector<Eigen::Vector3f>* with) {
+  SHADOWSG_CHECK(!model.exact && !model.bounce && !model.HasCones());
+  const DirectLobes d = PrepareDirectLobes(model, lighting);
+  without->assign(model.points.size(), Eigen::Vector3f::Zero());
+  with->assign(model.points.size(), Eigen::Vector3f::Zero());
+  Eigen::MatrixXf theta, theta_more;
+  for (size_t begin = 0; begin < model.points.size(); begin += kRenderChunk) {
+    const size_t end = std::min(model.points.size(), begin + kRenderChunk);
+    const std::vector<Eigen::Vector3d> chunk(model.points.begin() + begin, model.points.begin() + end);
+    SignedAnglesWithWitness(model.occluders, chunk, d.axes, &theta, nullptr, model.search, &d.caps, CapSides::kBoth);
+    ShadeDirect(model, lighting, d, begin, theta, model.occluder_cos.data() + begin, without);
+    // theta and the cap's cone over every occluder are the smaller of the
+    // model's and `more`'s (each theta is exact up to its cap, or at most
+    // minus it where the sigmoid is 0).
+    SignedAnglesWithWitness(more, chunk, d.axes, &theta_more, nullptr, model.search, &d.caps, CapSides::kBoth);
+    theta = theta.cwiseMin(theta_more);
+    std::vector<float> cos_with = OccluderConeCosines(more, chunk);
+    for (size_t k = 0; k < cos_with.size(); ++k) cos_with[k] = std::min(cos_with[k], model.occluder_cos[begin + k]);
+    ShadeDirect(model, lighting, d, begin, theta, cos_with.data(), with);
+  }
+}
 
 double MseAndGradient(const ShadowPlaneModel& model, const SgLighting& lighting, const std::vector<size_t>& points,
                       const std::vector<Eigen::Vector3f>& targets, Eigen::MatrixXd* grad) {

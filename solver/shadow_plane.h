@@ -160,6 +160,18 @@ LobeShadingColumns LobeColumns(const ShadowPlaneModel& model, const std::vector<
 std::vector<Eigen::Vector3f> RenderShadowPlane(const ShadowPlaneModel& model, const SgLighting& lighting,
                                                std::vector<Eigen::Vector3f>* bounce_share = nullptr);
 
+// The model's points rendered as RenderShadowPlane renders them (*without)
+// and with the occluders `more` beside the model's (*with): the compositor's
+// plane without and with the virtual objects. The second render searches
+// only `more` and takes the smaller theta, so the pair costs little more
+// than one render. The model: sphere-tree visibility, no bounce, no
+// prepared cones. (Where the sigmoid is saturated at 0 both ways, a theta may
+// be another leaf's than a search of every tree returns, both at or below
+// minus the cap.)
+void RenderShadowPlaneAdding(const ShadowPlaneModel& model, const std::vector<SphereTree>& more,
+                             const SgLighting& lighting, std::vector<Eigen::Vector3f>* without,
+                             std::vector<Eigen::Vector3f>* with);
+
 // Mean squared error over the listed points and the three channels, against
 // targets[point], and its gradient with respect to each lobe's
 // [axis mu (3, as a free vector at |mu| = 1) | sharpness (1) | amplitude (3)]

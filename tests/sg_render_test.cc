@@ -6,12 +6,14 @@
 #include "solver/cosine_table.h"
 #include "solver/sg_shading.h"
 #include "solver/shadow_plane.h"
+#include "solver/sphere_tree.h"
 #include "solver/ssdf.h"
 #include "sg_test_scene.h"
 
 namespace shadowsg {
 namespace {
 
+using testing::TestCasterTree;
 using testing::TestPlaneModel;
 
 double RelErr(double a, double b) { return std::abs(a - b) / std::max({std::abs(a), std::abs(b), 1e-12}); }
@@ -322,6 +324,40 @@ TEST(ShadowPlane, NoOccluderMeansFullIrradiance) {
   // A near-delta light of irradiance 1 straight above: L = albedo / pi.
   const auto r = RenderShadowPlane(model, l);
   EXPECT_NEAR(r[0].x(), 0.8 / M_PI, 1e-3);
+}
+
+// The compositor's pair: the plane without a second caster and with it,
+// the second render searching the added tree only.
+TEST(ShadowPlane, RenderAddingOccludersMatchesARenderOfThemAll) {
+  ShadowPlaneModel model = TestPlaneModel(40, CosineModel::kExact);
+  model.cap_occlusion = true;
+  model.upper_hemisphere_only = false;
+  model.max_steepness = kSgMaxVisibilitySteepness;
+  model.occluder_cos = OccluderConeCosines(model.occluders, model.points);
+  Eigen::Matrix4d shift = Eigen::Matrix4d::Identity();
+  shift.block<3, 1>(0, 3) = Eigen::Vector3d(0.7, -0.4, 0);
+  const std::vector<SphereTree> more = {TransformSphereTree(TestCasterTree(), shift)};
+  SgLighting l;
+  l.lobes.push_back({Eigen::Vector3d(0.4, 0.3, 0.87).normalized(), 300.0, Eigen::Vector3d(40, 38, 35)});
+  l.lobes.push_back({Eigen::Vector3d(-0.5, 0.1, 0.86).normalized(), 30.0, Eigen::Vector3d(3, 3, 4)});
+  l.lobes.push_back({Eigen::Vector3d(0.1, -0.2, 0.97).normalized(), 2.0, Eigen::Vector3d(0.5, 0.6, 0.9)});
+  std::vector<Eigen::Vector3f> without, with;
+  RenderShadowPlaneAdding(model, more, l, &without, &with);
+
+  ShadowPlaneModel all = model;
+  all.occluders.push_back(more[0]);
+  all.occluder_cos = OccluderConeCosines(all.occluders, all.points);
+  const std::vector<Eigen::Vector3f> without_ref = RenderShadowPlane(model, l), with_ref = RenderShadowPlane(all, l);
+  ASSERT_EQ(without.size(), model.points.size());
+  ASSERT_EQ(with.size(), model.points.size());
+  int shadowed = 0;
+  for (size_t k = 0; k < model.points.size(); ++k) {
+    EXPECT_EQ(without[k], without_ref[k]) << k;
+    EXPECT_LT((with[k] - with_ref[k]).norm(), 1e-6 * with_ref[k].norm() + 1e-12) << k;
+    shadowed += (with[k] - without[k]).norm() > 1e-3 * without[k].norm();
+  }
+  // The added caster's shadow is in view.
+  EXPECT_GT(shadowed, 20);
 }
 
 }  // namespace
