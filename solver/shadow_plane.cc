@@ -376,10 +376,9 @@ void RenderShadowPlaneAdding(const ShadowPlaneModel& model, const std::vector<Sp
     SignedAnglesWithWitness(model.occluders, chunk, d.axes, &theta, nullptr, model.search, &d.caps, CapSides::kBoth);
     ShadeDirect(model, lighting, d, begin, theta, model.occluder_cos.data() + begin, without);
     // theta and the cap's cone over every occluder are the smaller of the
-    // model's and `more`'s (each theta is exact up to its cap, or at most
-    // minus it where the sigmoid is 0).
-    SignedAnglesWithWitness(more, chunk, d.axes, &theta_more, nullptr, model.search, &d.caps, CapSides::kBoth);
-    theta = theta.cwiseMin(theta_more);
+    // model's and `more`'s.
+    SignedAnglesWithWitness(more, chunk, d.axes, &theta_more, nullptr, model.search, &d.caps, CapSides::kBoth, &theta);
+    theta.swap(theta_more);
     std::vector<float> cos_with = OccluderConeCosines(more, chunk);
     for (size_t k = 0; k < cos_with.size(); ++k) cos_with[k] = std::min(cos_with[k], model.occluder_cos[begin + k]);
     ShadeDirect(model, lighting, d, begin, theta, cos_with.data(), with);

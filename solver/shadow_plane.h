@@ -163,8 +163,8 @@ std::vector<Eigen::Vector3f> RenderShadowPlane(const ShadowPlaneModel& model, co
 // The model's points rendered as RenderShadowPlane renders them (*without)
 // and with the occluders `more` beside the model's (*with): the compositor's
 // plane without and with the virtual objects. The second render searches
-// only `more` and takes the smaller theta, so the pair costs little more
-// than one render. The model: sphere-tree visibility, no bounce, no
+// only `more`, below the first's theta (SignedAnglesWithWitness' known), so
+// the pair costs little more than one render. The model: sphere-tree visibility, no bounce, no
 // prepared cones. (Where the sigmoid is saturated at 0 both ways, a theta may
 // be another leaf's than a search of every tree returns, both at or below
 // minus the cap.)

@@ -784,7 +784,8 @@ namespace {
 void PointAngles(const SearchPoint& sp, const std::vector<Eigen::Vector3f>& unit, const std::vector<int>& order,
                  SsdfSearch search, const std::vector<float>* caps, CapSides sides, std::vector<StackEntry>* stack,
                  float* out_row, long out_stride, Eigen::Vector3f* witness_row, uint32_t* hint_leaf = nullptr,
-                 float* hint_floor = nullptr, float* hint_rival = nullptr, const float* drift = nullptr) {
+                 float* hint_floor = nullptr, float* hint_rival = nullptr, const float* drift = nullptr,
+                 const float* known_row = nullptr) {
   const FlatTrees& flat = sp.flat;
   size_t warm = flat.trees[0].leaves;  // leaf indices from here on
   for (int a : order) {
@@ -799,6 +800,7 @@ void PointAngles(const SearchPoint& sp, const std::vector<Eigen::Vector3f>& unit
       best = caps ? (*caps)[a] : kInfF;
       // Deep enough in some leaf's cone, theta need not be the minimum.
       const float stop = caps && sides == CapSides::kBoth ? -best : -kInfF;
+      if (known_row) best = std::min(best, known_row[a * out_stride]);
       const uint32_t hinted = hint_leaf && hint_leaf[a] < flat.leaves.count ? hint_leaf[a] : OccluderCones::kNoLeaf;
       float hint_value = kInfF;
       if (hint_floor) {
@@ -862,6 +864,7 @@ void PointAngles(const SearchPoint& sp, const std::vector<Eigen::Vector3f>& unit
         const float v = CoarseToFineTreeF(sp, tr, mx, my, mz, &leaf);
         if (v < best) best = v, argmin = leaf;
       }
+      if (known_row && known_row[a * out_stride] < best) best = known_row[a * out_stride], argmin = kNoneLeaf;
     }
     out_row[a * out_stride] = best;
     if (witness_row) {
@@ -892,18 +895,20 @@ std::vector<Eigen::Vector3f> UnitAxes(const std::vector<Eigen::Vector3d>& axes) 
 void SignedAnglesWithWitness(const std::vector<SphereTree>& world_trees, const std::vector<Eigen::Vector3d>& points,
                              const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* out,
                              std::vector<Eigen::Vector3f>* witness, SsdfSearch search,
-                             const std::vector<float>* caps, CapSides sides) {
+                             const std::vector<float>* caps, CapSides sides, const Eigen::MatrixXf* known) {
   CheckTrees(world_trees);
   SHADOWSG_CHECK(!caps || caps->size() == axes.size());
   for (const auto& t : world_trees) SHADOWSG_CHECK(t.nodes.empty() || t.branching <= 64);
   const long np = static_cast<long>(points.size());
   const int na = static_cast<int>(axes.size());
+  SHADOWSG_CHECK(!known || (known->rows() == np && known->cols() == na && known != out));
   out->resize(np, na);
   if (witness) witness->assign(static_cast<size_t>(np) * na, Eigen::Vector3f::Zero());
   if (np == 0 || na == 0) return;
   const FlatTrees flat = Flatten(world_trees, search);
   if (flat.trees.empty()) {
-    out->setConstant(kInfF);
+    if (known) *out = *known;
+    else out->setConstant(kInfF);
     return;
   }
   const std::vector<Eigen::Vector3f> unit = UnitAxes(axes);
@@ -932,9 +937,9 @@ void SignedAnglesWithWitness(const std::vector<SphereTree>& world_trees, const s
 #pragma omp for schedule(dynamic, kChunk)
     for (long p = 0; p < np; ++p) {
       FillConeTable(flat, points[p], &table, &leaf_table, tighten);
-      PointAngles({flat, table, points[p].data(), tighten ? &leaf_table : nullptr}, unit, order, search, caps, sides, &stack, &(*out)(p, 0),
-                  out->rows(),
-                  witness ? &(*witness)[static_cast<size_t>(p) * na] : nullptr);
+      PointAngles({flat, table, points[p].data(), tighten ? &leaf_table : nullptr}, unit, order, search, caps, sides,
+                  &stack, &(*out)(p, 0), out->rows(), witness ? &(*witness)[static_cast<size_t>(p) * na] : nullptr,
+                  nullptr, nullptr, nullptr, nullptr, known ? &(*known)(p, 0) : nullptr);
     }
   }
 }

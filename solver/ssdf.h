@@ -79,7 +79,12 @@ void SignedAnglesWithWitness(const std::vector<SphereTree>& world_trees, const s
                              const std::vector<Eigen::Vector3d>& axes, Eigen::MatrixXf* out,
                              std::vector<Eigen::Vector3f>* witness, SsdfSearch search = SsdfSearch::kExact,
                              const std::vector<float>* caps = nullptr,  // as OccluderCones::Angles
-                             CapSides sides = CapSides::kAbove);
+                             CapSides sides = CapSides::kAbove,
+                             const Eigen::MatrixXf* known = nullptr);
+// known (optional, points x axes): theta already found for other occluders
+// (an earlier call's out). Each result is the smaller of it and these trees'
+// theta (the witness zero where known is smaller), and the search skips every
+// subtree above it: adding occluders to a theta costs their search alone.
 
 // The cone tables of a fixed set of points, computed once: the occluders seen
 // from a plane point never change while the lighting is fitted, so solvers

@@ -187,6 +187,39 @@ TEST(Ssdf, BatchMatchesSingle) {
     }
 }
 
+// theta over more occluders from theta over some: the search of the others
+// starts below what is known and returns the smaller.
+TEST(Ssdf, KnownAnglesOfSomeTreesJoinTheOthers) {
+  const auto trees = TestTrees(33);
+  const std::vector<SphereTree> first = {trees[0]}, others = {trees[1], trees[2]};
+  std::mt19937_64 rng(4);
+  const auto points = TestPoints(rng, 400);
+  std::vector<Eigen::Vector3d> axes;
+  for (int i = 0; i < 40; ++i) axes.push_back(RandomUnit(rng));
+  std::vector<float> caps(axes.size());
+  for (size_t a = 0; a < caps.size(); ++a) caps[a] = 0.05f + 0.1f * static_cast<float>(a % 7);
+  const std::vector<Eigen::Vector3d> few(axes.begin(), axes.begin() + 8);
+  const std::vector<float> few_caps(caps.begin(), caps.begin() + 8);
+  for (SsdfSearch search : {SsdfSearch::kExact, SsdfSearch::kCoarseToFine})
+    for (int variant = 0; variant < 3; ++variant) {
+      // Many uncapped axes (tightened tables), few uncapped, few capped.
+      const auto& ax = variant == 0 ? axes : few;
+      const std::vector<float>* cp = variant == 2 ? &few_caps : nullptr;
+      Eigen::MatrixXf known, joined, all;
+      SignedAnglesWithWitness(first, points, ax, &known, nullptr, search, cp);
+      SignedAnglesWithWitness(others, points, ax, &joined, nullptr, search, cp, CapSides::kAbove, &known);
+      SignedAnglesWithWitness(trees, points, ax, &all, nullptr, search, cp);
+      int lowered = 0;
+      for (long p = 0; p < all.rows(); ++p)
+        for (long a = 0; a < all.cols(); ++a) {
+          ASSERT_EQ(joined(p, a), all(p, a)) << "point " << p << " axis " << a << " variant " << variant;
+          lowered += joined(p, a) < known(p, a);
+        }
+      // The other trees' leaves decide some of them.
+      EXPECT_GT(lowered, 50) << variant;
+    }
+}
+
 TEST(Ssdf, HintsGiveTheSameAnglesAsAFreshSearch) {
   // A solver's axes move a little per iteration; the hints of the last call
   // skip points whose lower bound stays above the cap and bound the rest.
