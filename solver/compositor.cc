@@ -132,6 +132,7 @@ constexpr int kCosineTableSize = 1024;
 class CosineTable {
  public:
   explicit CosineTable(double lambda) : value_(kCosineTableSize + 1) {
+#pragma omp parallel for schedule(static)
     for (int i = 0; i <= kCosineTableSize; ++i)
       value_[i] = SgCosineIntegral(lambda, -1.0 + 2.0 * i / kCosineTableSize).value;
   }
@@ -145,6 +146,15 @@ class CosineTable {
  private:
   std::vector<double> value_;
 };
+
+// A lighting's tables, one per sharpness (an env map's lobes share one),
+// made once for every ShadeSurface call of a preview.
+using CosineTables = std::map<double, CosineTable>;
+CosineTables MakeCosineTables(const SgLighting& sg) {
+  CosineTables tables;
+  for (const auto& l : sg.lobes) tables.try_emplace(l.sharpness, l.sharpness);
+  return tables;
+}
 
 // A point on an object's surface seen by one sub-pixel ray (or a pixel centre).
 struct SurfaceSample {
@@ -165,10 +175,14 @@ ShadowPlaneModel PlaneModel(const Scene& scene, const std::vector<Eigen::Vector3
 // smaller of the signed angle to the occluders' leaf spheres and to the
 // plane's half-space (the side of the plane the point is not on). The
 // sigmoid is uncapped: a half-space is the boundary it was fitted to.
+// tables: MakeCosineTables(sg). known (optional, in): theta over other
+// occluders for these samples and lobes, which `occluders` join; theta
+// (optional, out): theta over all of them.
 std::vector<Eigen::Vector3d> ShadeSurface(const std::vector<SurfaceSample>& samples,
                                           const std::vector<Eigen::Vector3d>& albedo,
                                           const std::vector<SphereTree>& occluders, const Plane& plane,
-                                          const SgLighting& sg) {
+                                          const SgLighting& sg, const CosineTables& tables,
+                                          const Eigen::MatrixXf* known = nullptr, Eigen::MatrixXf* theta_out = nullptr) {
   std::vector<Eigen::Vector3d> out(samples.size(), Eigen::Vector3d::Zero());
   if (samples.empty() || sg.lobes.empty()) return out;
   std::vector<Eigen::Vector3d> points, axes;
@@ -186,12 +200,10 @@ std::vector<Eigen::Vector3d> ShadeSurface(const std::vector<SurfaceSample>& samp
     caps.push_back(VisibilityCap(flattest));
   }
   Eigen::MatrixXf theta;
-  SignedAnglesWithWitness(occluders, points, axes, &theta, nullptr, SsdfSearch::kExact, &caps);
-  // The exact cosine integral of each lobe, tabulated once per sharpness
-  // (an env map's lobes share one).
-  std::map<double, CosineTable> by_sharpness;
+  SignedAnglesWithWitness(occluders, points, axes, &theta, nullptr, SsdfSearch::kExact, &caps, CapSides::kAbove,
+                          known);
   std::vector<const CosineTable*> table;
-  for (const auto& l : sg.lobes) table.push_back(&by_sharpness.try_emplace(l.sharpness, l.sharpness).first->second);
+  for (const auto& l : sg.lobes) table.push_back(&tables.at(l.sharpness));
 #pragma omp parallel for schedule(static)
   for (long k = 0; k < static_cast<long>(samples.size()); ++k) {
     const SurfaceSample& s = samples[k];
@@ -210,6 +222,7 @@ std::vector<Eigen::Vector3d> ShadeSurface(const std::vector<SurfaceSample>& samp
     }
     out[k] = albedo[k].cwiseProduct(sum) / M_PI;
   }
+  if (theta_out) *theta_out = std::move(theta);
   return out;
 }
 
@@ -347,6 +360,7 @@ CompositeResult CompositePreview(const Scene& scene, const LightSet& lights, con
   Report(progress, 0.6, "plane without and with objects");
 
   // Caster pixels: their shading changes by the virtual objects' shadows.
+  const CosineTables tables = MakeCosineTables(sg);
   for (size_t c = 0; c < scene.objects.size(); ++c) {
     if (!scene.objects[c].is_train) continue;
     std::vector<SurfaceSample> samples;
@@ -356,9 +370,11 @@ CompositeResult CompositePreview(const Scene& scene, const LightSet& lights, con
     if (samples.empty()) continue;
     const std::vector<Eigen::Vector3d> albedo(samples.size(), scene.objects[c].diffuse);
     const int self = static_cast<int>(c);
+    Eigen::MatrixXf theta_without;
     const auto without = ShadeSurface(samples, albedo, trees([&](int i) { return is_caster(i) && i != self; }),
-                                      scene.plane, sg);
-    const auto with = ShadeSurface(samples, albedo, trees([&](int i) { return i != self; }), scene.plane, sg);
+                                      scene.plane, sg, tables, nullptr, &theta_without);
+    const auto with =
+        ShadeSurface(samples, albedo, trees([&](int i) { return !is_caster(i); }), scene.plane, sg, tables, &theta_without);
     for (size_t k = 0; k < samples.size(); ++k) {
       with_local.set_rgb(samples[k].pixel, with[k].cast<float>());
       without_local.set_rgb(samples[k].pixel, without[k].cast<float>());
@@ -383,7 +399,7 @@ CompositeResult CompositePreview(const Scene& scene, const LightSet& lights, con
     if (mine.empty()) continue;
     const std::vector<Eigen::Vector3d> albedo(mine.size(), scene.objects[o].diffuse);
     const int self = static_cast<int>(o);
-    const auto direct = ShadeSurface(mine, albedo, trees([&](int i) { return i != self; }), scene.plane, sg);
+    const auto direct = ShadeSurface(mine, albedo, trees([&](int i) { return i != self; }), scene.plane, sg, tables);
     for (size_t k = 0; k < mine.size(); ++k) radiance[index[k]] = direct[k];
   }
   // The plane below as a uniform Lambertian emitter of the radiance it has
