@@ -184,7 +184,7 @@ struct AlignedAllocator {
 // four values share it. With one array per value (the former layout) each
 // read touched four lines; the tables of a fit set (~56 MB for 6000 points)
 // do not fit in cache, and those misses were the search's largest cost.
-// The block layout, shared by ConeTable and LeafSpheres: four values a node,
+// The block layout, shared by ConeTable and SphereBlocks: four values a node,
 // kLanes nodes a block, each value's lanes side by side.
 constexpr size_t kLanes = 8;
 // Start of node i's block, and the index of its value v (0-3).
@@ -220,10 +220,10 @@ struct FlatTree {
   size_t Leaf(size_t l) const { return leaves + (l - leaf_begin); }
 };
 
-// The leaves' spheres, shared by every point, in blocks of kLanes as a
-// ConeTable's (centre x, y, z, radius; double, so that a cone computed from
-// them is as precise as a table's). Radius 0: an empty slot.
-struct LeafSpheres {
+// Spheres shared by every point (the inner nodes', the leaves'), in blocks
+// of kLanes as a ConeTable's (centre x, y, z, radius; double, so that a cone
+// computed from them is as precise as a table's). Radius 0: an empty slot.
+struct SphereBlocks {
   static constexpr size_t kLanes = shadowsg::kLanes;
   std::vector<double, AlignedAllocator<double, 64>> data;
   size_t count = 0;
@@ -242,17 +242,18 @@ struct LeafSpheres {
 // The trees flattened. Inner nodes (levels above the last) get a cone per
 // point in a ConeTable: for kExact the subtree bounds, for kCoarseToFine the
 // nodes' own spheres. Leaves (the last level, the occluders themselves) are
-// not tabled: their cones are computed from LeafSpheres where a search
+// not tabled: their cones are computed from SphereBlocks where a search
 // reaches them. They are seven eighths of a tree's nodes, and a table of
 // every node (9.4 KB a point, 56 MB for 6000 fit pixels) did not fit in
 // cache; the search waited on memory more than it computed.
 struct FlatTrees {
   std::vector<FlatTree> trees;
-  std::vector<Eigen::Vector3d> centre;  // inner nodes, table-indexed
-  std::vector<double> radius;           // 0: empty (also the alignment slots)
-  std::vector<char> is_leaf;            // a point inside gets the leaf rule (kCoarseToFine's own spheres)
-  LeafSpheres leaves;
-  bool exact = false;  // inner nodes are subtree bounds (kExact), not the nodes' own spheres
+  SphereBlocks inner;   // inner nodes, table-indexed (radius 0: empty, also the alignment slots)
+  SphereBlocks leaves;
+  // kExact: inner nodes are subtree bounds, and a point inside one has no
+  // bound from it; kCoarseToFine: they are the nodes' own spheres, and a
+  // point inside one gets the leaf rule.
+  bool exact = false;
 };
 
 FlatTrees Flatten(const std::vector<SphereTree>& world_trees, SsdfSearch search) {
@@ -263,14 +264,10 @@ FlatTrees Flatten(const std::vector<SphereTree>& world_trees, SsdfSearch search)
     // 8 every sibling group starts a block (of the table, of the leaves): the
     // root's children (table index root + 1) and the first leaf group.
     auto pad = [](size_t size, size_t first) { return (kLanes - (size + first) % kLanes) % kLanes; };
-    for (size_t k = pad(f.centre.size(), 1); k > 0; --k) {
-      f.centre.push_back(Eigen::Vector3d::Zero());
-      f.radius.push_back(0.0);
-      f.is_leaf.push_back(0);
-    }
+    for (size_t k = pad(f.inner.count, 1); k > 0; --k) f.inner.Push(Eigen::Vector3d::Zero(), 0.0);
     const size_t leaf_begin = t.LevelBegin(t.levels - 1);
     for (size_t k = pad(f.leaves.count, 0); k > 0; --k) f.leaves.Push(Eigen::Vector3d::Zero(), 0.0);
-    FlatTree ft{t.levels, t.branching, f.centre.size(), leaf_begin, f.leaves.count};
+    FlatTree ft{t.levels, t.branching, f.inner.count, leaf_begin, f.leaves.count};
     const std::vector<Sphere> spheres = search == SsdfSearch::kExact ? SubtreeBounds(t) : t.nodes;
     for (size_t i = 0; i < spheres.size(); ++i) {
       const double r = spheres[i].empty() ? 0.0 : spheres[i].radius;
@@ -278,9 +275,7 @@ FlatTrees Flatten(const std::vector<SphereTree>& world_trees, SsdfSearch search)
         f.leaves.Push(spheres[i].centre, r);
         continue;
       }
-      f.centre.push_back(spheres[i].centre);
-      f.radius.push_back(r);
-      f.is_leaf.push_back(search == SsdfSearch::kCoarseToFine);
+      f.inner.Push(spheres[i].centre, r);
     }
     f.trees.push_back(ft);
   }
@@ -305,7 +300,7 @@ struct Cone {
   float ux, uy, uz, alpha;
 };
 inline Cone LeafCone(const double* block, size_t lane, double px, double py, double pz) {
-  constexpr size_t L = LeafSpheres::kLanes;
+  constexpr size_t L = SphereBlocks::kLanes;
   const double sx = block[lane] - px, sy = block[L + lane] - py, sz = block[2 * L + lane] - pz;
   const double r = block[3 * L + lane];
   const double d = std::sqrt(sx * sx + sy * sy + sz * sz);
@@ -319,8 +314,8 @@ inline Cone LeafCone(const double* block, size_t lane, double px, double py, dou
   c.alpha = r <= 0 ? -kInfF : d <= r ? inside_alpha : outside_alpha;
   return c;
 }
-inline Cone LeafConeAt(const LeafSpheres& l, size_t i, const double* x) {
-  return LeafCone(l.data.data() + LeafSpheres::Block(i), i % LeafSpheres::kLanes, x[0], x[1], x[2]);
+inline Cone LeafConeAt(const SphereBlocks& l, size_t i, const double* x) {
+  return LeafCone(l.data.data() + SphereBlocks::Block(i), i % SphereBlocks::kLanes, x[0], x[1], x[2]);
 }
 
 // The cones of the block of leaves starting at `begin` (a multiple of kLanes)
@@ -329,9 +324,9 @@ inline Cone LeafConeAt(const LeafSpheres& l, size_t i, const double* x) {
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 __attribute__((target_clones("avx2,fma", "default")))
 #endif
-void LeafConeBlock(const LeafSpheres& l, size_t begin, const double* x, float* cones) {
-  constexpr size_t L = LeafSpheres::kLanes;
-  const double* block = l.data.data() + LeafSpheres::Block(begin);
+void LeafConeBlock(const SphereBlocks& l, size_t begin, const double* x, float* cones) {
+  constexpr size_t L = SphereBlocks::kLanes;
+  const double* block = l.data.data() + SphereBlocks::Block(begin);
   const double px = x[0], py = x[1], pz = x[2];
 #pragma omp simd
   for (size_t j = 0; j < L; ++j) {
@@ -340,6 +335,32 @@ void LeafConeBlock(const LeafSpheres& l, size_t begin, const double* x, float* c
     cones[L + j] = c.uy;
     cones[2 * L + j] = c.uz;
     cones[3 * L + j] = c.alpha;
+  }
+}
+
+// The cones of the block of inner nodes starting at `begin` (a multiple of
+// kLanes) seen from x, as LeafConeBlock writes a leaf block's, except that a
+// point inside a sphere gets inside_alpha about the direction to its centre
+// (+z at the centre) and an empty slot the direction 0.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target_clones("avx2,fma", "default")))
+#endif
+void InnerConeBlock(const SphereBlocks& spheres, size_t begin, const double* x, float inside_alpha, float* cones) {
+  constexpr size_t L = SphereBlocks::kLanes;
+  const double* block = spheres.data.data() + SphereBlocks::Block(begin);
+  const double px = x[0], py = x[1], pz = x[2];
+#pragma omp simd
+  for (size_t j = 0; j < L; ++j) {
+    const double sx = block[j] - px, sy = block[L + j] - py, sz = block[2 * L + j] - pz;
+    const double r = block[3 * L + j];
+    const double d = std::sqrt(sx * sx + sy * sy + sz * sz);
+    const bool empty = r <= 0, at_centre = !(d > 0), inside = d <= r;
+    const double q = at_centre ? 1.0 : d;
+    cones[j] = empty || at_centre ? 0.0f : static_cast<float>(sx / q);
+    cones[L + j] = empty || at_centre ? 0.0f : static_cast<float>(sy / q);
+    cones[2 * L + j] = empty ? 0.0f : at_centre ? 1.0f : static_cast<float>(sz / q);
+    const float outside = AsinUnit(static_cast<float>(r / q), static_cast<float>(0.5 * (d - r) / q));
+    cones[3 * L + j] = empty ? -kInfF : inside ? inside_alpha : outside;
   }
 }
 
@@ -369,11 +390,11 @@ void TightenBounds(const FlatTrees& f, const double* x, const ConeTable* leaf_ta
       if (!(t->alpha(i) > -kInfF)) continue;  // empty subtree
       const size_t first = local * tr.branching + 1;
       float cap = 0;
-      if (first >= tr.leaf_begin && tr.branching == static_cast<int>(LeafSpheres::kLanes) &&
-          tr.Leaf(first) % LeafSpheres::kLanes == 0) {
+      if (first >= tr.leaf_begin && tr.branching == static_cast<int>(SphereBlocks::kLanes) &&
+          tr.Leaf(first) % SphereBlocks::kLanes == 0) {
         // A whole block of leaves (seven eighths of the children a point's
         // table visits): their cones at once, or the leaf table's block.
-        constexpr size_t L = LeafSpheres::kLanes;
+        constexpr size_t L = SphereBlocks::kLanes;
         alignas(32) float block[4 * L];
         const float* cones = block;
         if (leaf_table) cones = leaf_table->data.data() + ConeTable::At(tr.Leaf(first), 0);
@@ -405,30 +426,13 @@ void FillConeTable(const FlatTrees& f, const Eigen::Vector3d& x, ConeTable* t, C
                    bool tighten = true) {
   // (The blocks' padding lanes get empty cones.)
   if (leaf_table && tighten)
-    for (size_t b = 0; b < f.leaves.count; b += LeafSpheres::kLanes)
+    for (size_t b = 0; b < f.leaves.count; b += SphereBlocks::kLanes)
       LeafConeBlock(f.leaves, b, x.data(), leaf_table->data.data() + ConeTable::At(b, 0));
-  const size_t n = f.centre.size();
-  for (size_t i = 0; i < n; ++i) {
-    const double r = f.radius[i];
-    const Eigen::Vector3d s = f.centre[i] - x;
-    const double d = s.norm();
-    float alpha;
-    Eigen::Vector3f u = Eigen::Vector3f::Zero();
-    if (r <= 0) {
-      alpha = -kInfF;
-    } else if (d <= r) {
-      if (!f.is_leaf[i]) {
-        alpha = static_cast<float>(-kContainsPoint);  // no bound: forces a descent
-      } else {
-        alpha = kHalfPiF;
-      }
-      u = d > 0 ? Eigen::Vector3f((s / d).cast<float>()) : Eigen::Vector3f::UnitZ();  // at the centre: +z (header)
-    } else {
-      u = (s / d).cast<float>();
-      alpha = AsinUnit(static_cast<float>(r / d), static_cast<float>(0.5 * (d - r) / d));
-    }
-    t->Set(i, u, alpha);
-  }
+  // A point inside a subtree bound has no bound from it (kExact): +10 rad
+  // forces the descent; inside a node's own sphere (kCoarseToFine) the leaf rule.
+  const float inside_alpha = f.exact ? static_cast<float>(-kContainsPoint) : kHalfPiF;
+  for (size_t b = 0; b < f.inner.count; b += SphereBlocks::kLanes)
+    InnerConeBlock(f.inner, b, x.data(), inside_alpha, t->data.data() + ConeTable::At(b, 0));
   if (f.exact && tighten) TightenBounds(f, x.data(), leaf_table, t);
 }
 
@@ -468,15 +472,15 @@ inline void ConeThetasN(const ConeTable& t, size_t begin, int n_runtime, float m
 
 // theta of leaves [begin, begin + n) seen from x, for the unit axis m.
 template <int kFixed>
-inline void LeafThetasN(const LeafSpheres& l, size_t begin, int n_runtime, const double* x, float mx, float my,
+inline void LeafThetasN(const SphereBlocks& l, size_t begin, int n_runtime, const double* x, float mx, float my,
                         float mz, float* out) {
   const int n = kFixed > 0 ? kFixed : n_runtime;
-  if (kFixed == 0 && (begin % LeafSpheres::kLanes + n > LeafSpheres::kLanes)) {
+  if (kFixed == 0 && (begin % SphereBlocks::kLanes + n > SphereBlocks::kLanes)) {
     for (int j = 0; j < n; ++j) LeafThetasN<1>(l, begin + j, 1, x, mx, my, mz, out + j);
     return;
   }
-  const double* block = l.data.data() + LeafSpheres::Block(begin);
-  const size_t lane0 = begin % LeafSpheres::kLanes;
+  const double* block = l.data.data() + SphereBlocks::Block(begin);
+  const size_t lane0 = begin % SphereBlocks::kLanes;
   const double px = x[0], py = x[1], pz = x[2];
 #pragma omp simd
   for (int j = 0; j < n; ++j) {
@@ -502,9 +506,9 @@ void ConeThetas(const ConeTable& t, size_t begin, int n, float mx, float my, flo
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 __attribute__((target_clones("avx2,fma", "default")))
 #endif
-void LeafThetas(const LeafSpheres& l, size_t begin, int n, const double* x, float mx, float my, float mz, float* out) {
-  if (n == static_cast<int>(LeafSpheres::kLanes) && begin % LeafSpheres::kLanes == 0)
-    LeafThetasN<LeafSpheres::kLanes>(l, begin, n, x, mx, my, mz, out);
+void LeafThetas(const SphereBlocks& l, size_t begin, int n, const double* x, float mx, float my, float mz, float* out) {
+  if (n == static_cast<int>(SphereBlocks::kLanes) && begin % SphereBlocks::kLanes == 0)
+    LeafThetasN<SphereBlocks::kLanes>(l, begin, n, x, mx, my, mz, out);
   else
     LeafThetasN<0>(l, begin, n, x, mx, my, mz, out);
 }
@@ -513,7 +517,7 @@ inline float ConeTheta(const ConeTable& t, size_t i, float mx, float my, float m
   return ConeThetaOf(t.ux(i), t.uy(i), t.uz(i), t.alpha(i), mx, my, mz);
 }
 
-inline float LeafTheta(const LeafSpheres& l, size_t i, const double* x, float mx, float my, float mz) {
+inline float LeafTheta(const SphereBlocks& l, size_t i, const double* x, float mx, float my, float mz) {
   return ConeThetaOf(LeafConeAt(l, i, x), mx, my, mz);
 }
 
@@ -930,7 +934,7 @@ void SignedAnglesWithWitness(const std::vector<SphereTree>& world_trees, const s
 #pragma omp parallel
   {
     ConeTable table, leaf_table;
-    table.Resize(flat.centre.size());
+    table.Resize(flat.inner.count);
     leaf_table.Resize(flat.leaves.count);
     std::vector<StackEntry> stack;
     stack.reserve(1024);
@@ -967,7 +971,7 @@ OccluderCones::OccluderCones(const std::vector<SphereTree>& world_trees, const s
   const long np = static_cast<long>(points.size());
 #pragma omp parallel for schedule(dynamic, 64)
   for (long p = 0; p < np; ++p) {
-    impl_->tables[p].Resize(impl_->flat.centre.size());
+    impl_->tables[p].Resize(impl_->flat.inner.count);
     FillConeTable(impl_->flat, points[p], &impl_->tables[p]);
   }
 }
