@@ -341,7 +341,9 @@ void LeafConeBlock(const SphereBlocks& l, size_t begin, const double* x, float* 
 // The cones of the block of inner nodes starting at `begin` (a multiple of
 // kLanes) seen from x, as LeafConeBlock writes a leaf block's, except that a
 // point inside a sphere gets inside_alpha about the direction to its centre
-// (+z at the centre) and an empty slot the direction 0.
+// (+z at the centre) and an empty slot the direction 0. The direction is
+// s / d here and s * (1 / d) in LeafCone: each keeps the rounding its tables
+// always had (the fit's lobes follow the last bits of the bounds).
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 __attribute__((target_clones("avx2,fma", "default")))
 #endif
@@ -425,7 +427,7 @@ void TightenBounds(const FlatTrees& f, const double* x, const ConeTable* leaf_ta
 void FillConeTable(const FlatTrees& f, const Eigen::Vector3d& x, ConeTable* t, ConeTable* leaf_table = nullptr,
                    bool tighten = true) {
   // (The blocks' padding lanes get empty cones.)
-  if (leaf_table && tighten)
+  if (leaf_table)
     for (size_t b = 0; b < f.leaves.count; b += SphereBlocks::kLanes)
       LeafConeBlock(f.leaves, b, x.data(), leaf_table->data.data() + ConeTable::At(b, 0));
   // A point inside a subtree bound has no bound from it (kExact): +10 rad
@@ -935,13 +937,16 @@ void SignedAnglesWithWitness(const std::vector<SphereTree>& world_trees, const s
   {
     ConeTable table, leaf_table;
     table.Resize(flat.inner.count);
-    leaf_table.Resize(flat.leaves.count);
+    // The leaves' cones are kept only where the table is tightened (which
+    // computes them all); otherwise a search computes those it reaches.
+    if (tighten) leaf_table.Resize(flat.leaves.count);
+    ConeTable* const leaves = tighten ? &leaf_table : nullptr;
     std::vector<StackEntry> stack;
     stack.reserve(1024);
 #pragma omp for schedule(dynamic, kChunk)
     for (long p = 0; p < np; ++p) {
-      FillConeTable(flat, points[p], &table, &leaf_table, tighten);
-      PointAngles({flat, table, points[p].data(), tighten ? &leaf_table : nullptr}, unit, order, search, caps, sides,
+      FillConeTable(flat, points[p], &table, leaves, tighten);
+      PointAngles({flat, table, points[p].data(), leaves}, unit, order, search, caps, sides,
                   &stack, &(*out)(p, 0), out->rows(), witness ? &(*witness)[static_cast<size_t>(p) * na] : nullptr,
                   nullptr, nullptr, nullptr, nullptr, known ? &(*known)(p, 0) : nullptr);
     }
