@@ -421,15 +421,19 @@ void TightenBounds(const FlatTrees& f, const double* x, const ConeTable* leaf_ta
   }
 }
 
+// Every leaf's cone seen from x (the blocks' padding lanes get empty cones).
+void FillLeafTable(const FlatTrees& f, const double* x, ConeTable* leaf_table) {
+  for (size_t b = 0; b < f.leaves.count; b += SphereBlocks::kLanes)
+    LeafConeBlock(f.leaves, b, x, leaf_table->data.data() + ConeTable::At(b, 0));
+}
+
 // The point's cones of the inner nodes and, with leaf_table, of the leaves.
 // tighten (kExact): TightenBounds; without, the inner nodes' cones are their
 // subtrees' enclosing spheres'.
+
 void FillConeTable(const FlatTrees& f, const Eigen::Vector3d& x, ConeTable* t, ConeTable* leaf_table = nullptr,
                    bool tighten = true) {
-  // (The blocks' padding lanes get empty cones.)
-  if (leaf_table)
-    for (size_t b = 0; b < f.leaves.count; b += SphereBlocks::kLanes)
-      LeafConeBlock(f.leaves, b, x.data(), leaf_table->data.data() + ConeTable::At(b, 0));
+  if (leaf_table) FillLeafTable(f, x.data(), leaf_table);
   // A point inside a subtree bound has no bound from it (kExact): +10 rad
   // forces the descent; inside a node's own sphere (kCoarseToFine) the leaf rule.
   const float inside_alpha = f.exact ? static_cast<float>(-kContainsPoint) : kHalfPiF;
@@ -556,7 +560,8 @@ struct StackEntry {
 constexpr size_t kNoneLeaf = std::numeric_limits<size_t>::max();
 
 // SignedAnglesWithWitness tightens a point's table for at least kTightenAxes
-// axes whose cap is at least kWideCap (rad) or absent.
+// axes whose cap is at least kWideCap (rad) or absent; OccluderCones::Search
+// tables a point's leaf cones for at least kTightenAxes axes.
 constexpr int kTightenAxes = 24;
 constexpr float kWideCap = 0.5f;
 
@@ -1026,15 +1031,23 @@ void OccluderCones::Search(const std::vector<Eigen::Vector3d>& axes, size_t begi
   }
   const std::vector<Eigen::Vector3f> unit = UnitAxes(axes);
   const std::vector<int> order = CoherentAxisOrder(unit);
+  // Searched for many axes (a dictionary's), a point's leaf cones are
+  // computed once into a table rather than at each visit: the same cones, so
+  // the same nodes are visited and the same values found.
+  const bool leaf_table = na >= kTightenAxes;
 #pragma omp parallel
   {
     std::vector<StackEntry> stack;
     stack.reserve(1024);
+    ConeTable leaves;
+    if (leaf_table) leaves.Resize(impl_->flat.leaves.count);
 #pragma omp for schedule(dynamic, 32)
     for (long q = 0; q < np; ++q) {
       const size_t p = begin + static_cast<size_t>(q), at = static_cast<size_t>(q) * na;
       if (q + 1 < np) PrefetchTable(impl_->tables[p + 1]);
-      PointAngles({impl_->flat, impl_->tables[p], impl_->points[p].data()}, unit, order, impl_->search, caps, sides, &stack,
+      if (leaf_table) FillLeafTable(impl_->flat, impl_->points[p].data(), &leaves);
+      PointAngles({impl_->flat, impl_->tables[p], impl_->points[p].data(), leaf_table ? &leaves : nullptr}, unit,
+                  order, impl_->search, caps, sides, &stack,
                   &(*out)(q, 0), out->rows(), witness ? &(*witness)[at] : nullptr,
                   hints ? &hints->leaf[at] : nullptr, hints ? &hints->floor[at] : nullptr,
                   hints ? &hints->rival[at] : nullptr, drift.data());

@@ -366,6 +366,43 @@ TEST(Ssdf, BothSidedCapsStopAtADeepLeaf) {
 }
 
 // A range of the prepared points gives those rows of the whole call.
+// A dictionary's many axes are searched with each point's leaf cones in a
+// table, a few axes with the cones computed where the search reaches them:
+// the same cones either way, so the same minimum to the bit.
+TEST(Ssdf, ManyAxesAtOnceMatchAFewAtATime) {
+  const auto trees = TestTrees(37);
+  std::mt19937_64 rng(21);
+  const auto points = TestPoints(rng, 300);
+  const OccluderCones cones(trees, points);
+  std::vector<Eigen::Vector3d> axes;
+  std::vector<float> caps;
+  for (int a = 0; a < 40; ++a) {
+    Eigen::Vector3d d = RandomUnit(rng);
+    d.z() = std::abs(d.z()) + 0.1;
+    axes.push_back(d.normalized());
+    caps.push_back(a % 3 == 0 ? 3.0f : 0.2f + 0.02f * a);
+  }
+  Eigen::MatrixXf all;
+  std::vector<Eigen::Vector3f> all_w;
+  cones.Angles(axes, &all, &all_w, &caps);
+  long witness_differs = 0, in_shadow = 0;
+  for (size_t begin = 0; begin < axes.size(); begin += 4) {
+    const std::vector<Eigen::Vector3d> few(axes.begin() + begin, axes.begin() + begin + 4);
+    const std::vector<float> few_caps(caps.begin() + begin, caps.begin() + begin + 4);
+    Eigen::MatrixXf part;
+    std::vector<Eigen::Vector3f> part_w;
+    cones.Angles(few, &part, &part_w, &few_caps);
+    for (size_t p = 0; p < points.size(); ++p)
+      for (size_t a = 0; a < few.size(); ++a) {
+        ASSERT_EQ(part(p, a), all(p, begin + a)) << "point " << p << " axis " << begin + a;
+        in_shadow += part(p, a) < few_caps[a];
+        witness_differs += part_w[p * few.size() + a] != all_w[p * axes.size() + begin + a];
+      }
+  }
+  EXPECT_GT(in_shadow, 1000);
+  EXPECT_LE(witness_differs, in_shadow / 200);  // ties only
+}
+
 TEST(Ssdf, AnglesOfARangeAreThoseRows) {
   const auto trees = TestTrees(23);
   std::mt19937_64 rng(9);
