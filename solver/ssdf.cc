@@ -430,7 +430,6 @@ void FillLeafTable(const FlatTrees& f, const double* x, ConeTable* leaf_table) {
 // The point's cones of the inner nodes and, with leaf_table, of the leaves.
 // tighten (kExact): TightenBounds; without, the inner nodes' cones are their
 // subtrees' enclosing spheres'.
-
 void FillConeTable(const FlatTrees& f, const Eigen::Vector3d& x, ConeTable* t, ConeTable* leaf_table = nullptr,
                    bool tighten = true) {
   if (leaf_table) FillLeafTable(f, x.data(), leaf_table);

@@ -365,7 +365,6 @@ TEST(Ssdf, BothSidedCapsStopAtADeepLeaf) {
   EXPECT_GT(stopped, 5) << deep;  // the early stop does happen
 }
 
-// A range of the prepared points gives those rows of the whole call.
 // A dictionary's many axes are searched with each point's leaf cones in a
 // table, a few axes with the cones computed where the search reaches them:
 // the same cones either way, so the same minimum to the bit.
@@ -403,6 +402,7 @@ TEST(Ssdf, ManyAxesAtOnceMatchAFewAtATime) {
   EXPECT_LE(witness_differs, in_shadow / 200);  // ties only
 }
 
+// A range of the prepared points gives those rows of the whole call.
 TEST(Ssdf, AnglesOfARangeAreThoseRows) {
   const auto trees = TestTrees(23);
   std::mt19937_64 rng(9);
