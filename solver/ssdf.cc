@@ -242,10 +242,12 @@ struct SphereBlocks {
 // The trees flattened. Inner nodes (levels above the last) get a cone per
 // point in a ConeTable: for kExact the subtree bounds, for kCoarseToFine the
 // nodes' own spheres. Leaves (the last level, the occluders themselves) are
-// not tabled: their cones are computed from SphereBlocks where a search
-// reaches them. They are seven eighths of a tree's nodes, and a table of
-// every node (9.4 KB a point, 56 MB for 6000 fit pixels) did not fit in
-// cache; the search waited on memory more than it computed.
+// not kept in the points' tables: their cones are computed from SphereBlocks
+// where a search reaches them, or for one point at a time into a leaf table
+// where a call searches many axes (FillLeafTable). They are seven eighths of
+// a tree's nodes, and a kept table of every node (9.4 KB a point, 56 MB for
+// 6000 fit pixels) did not fit in cache; the search waited on memory more
+// than it computed.
 struct FlatTrees {
   std::vector<FlatTree> trees;
   SphereBlocks inner;   // inner nodes, table-indexed (radius 0: empty, also the alignment slots)
