@@ -12,6 +12,18 @@
 #include "calib/error.h"
 #include "solver/enclosing_sphere.h"
 
+// The search's kernels below are also compiled for x86-64-v3 (AVX2 with FMA)
+// and chosen at load time (GCC function multiversioning) in a build for plain
+// x86-64 (SHADOWSG_AVX2 off). One clone for the level, not "avx2,fma", which
+// made two clones, AVX2 without FMA and FMA without AVX2. A build for
+// x86-64-v3 has no clones: they would all be the same code behind an
+// indirect call.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !(defined(__AVX2__) && defined(__FMA__))
+#define SHADOWSG_KERNEL_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
+#else
+#define SHADOWSG_KERNEL_CLONES
+#endif
+
 namespace shadowsg {
 namespace {
 
@@ -323,9 +335,7 @@ inline Cone LeafConeAt(const SphereBlocks& l, size_t i, const double* x) {
 // The cones of the block of leaves starting at `begin` (a multiple of kLanes)
 // seen from x, written as a ConeTable block (kLanes each of ux, uy, uz,
 // alpha): the same arithmetic as LeafConeAt, lane by lane.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-__attribute__((target_clones("avx2,fma", "default")))
-#endif
+SHADOWSG_KERNEL_CLONES
 void LeafConeBlock(const SphereBlocks& l, size_t begin, const double* x, float* cones) {
   constexpr size_t L = SphereBlocks::kLanes;
   const double* block = l.data.data() + SphereBlocks::Block(begin);
@@ -346,9 +356,7 @@ void LeafConeBlock(const SphereBlocks& l, size_t begin, const double* x, float* 
 // (+z at the centre) and an empty slot the direction 0. The direction is
 // s / d here and s * (1 / d) in LeafCone: each keeps the rounding its tables
 // always had (the fit's lobes follow the last bits of the bounds).
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-__attribute__((target_clones("avx2,fma", "default")))
-#endif
+SHADOWSG_KERNEL_CLONES
 void InnerConeBlock(const SphereBlocks& spheres, size_t begin, const double* x, float inside_alpha, float* cones) {
   constexpr size_t L = SphereBlocks::kLanes;
   const double* block = spheres.data.data() + SphereBlocks::Block(begin);
@@ -371,9 +379,7 @@ void InnerConeBlock(const SphereBlocks& spheres, size_t begin, const double* x, 
 // For a block of cones (as LeafConeBlock writes them), each cone's angle from
 // the unit direction u plus its half-angle: the term of TightenBounds' cap,
 // the same arithmetic as UnitAngle, lane by lane.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-__attribute__((target_clones("avx2,fma", "default")))
-#endif
+SHADOWSG_KERNEL_CLONES
 void ConeCapTerms(const float* cones, float ux, float uy, float uz, float* term) {
   constexpr size_t L = ConeTable::kLanes;
 #pragma omp simd
@@ -496,13 +502,10 @@ inline void LeafThetasN(const SphereBlocks& l, size_t begin, int n_runtime, cons
   }
 }
 
-// The kernels, compiled for AVX2/FMA too and chosen at load time (GCC function
-// multiversioning; the default build targets plain x86-64: measured 1.2x on
-// the whole search). Branching 8, the project's and the reference's, gets a
-// fixed-width loop.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-__attribute__((target_clones("avx2,fma", "default")))
-#endif
+// The search's kernels (SHADOWSG_KERNEL_CLONES: in a plain x86-64 build the
+// clones measured 1.2x on the whole search). Branching 8, the project's and
+// the reference's, gets a fixed-width loop.
+SHADOWSG_KERNEL_CLONES
 void ConeThetas(const ConeTable& t, size_t begin, int n, float mx, float my, float mz, float* out) {
   if (n == static_cast<int>(ConeTable::kLanes) && begin % ConeTable::kLanes == 0)
     ConeThetasN<ConeTable::kLanes>(t, begin, n, mx, my, mz, out);
@@ -510,9 +513,7 @@ void ConeThetas(const ConeTable& t, size_t begin, int n, float mx, float my, flo
     ConeThetasN<0>(t, begin, n, mx, my, mz, out);
 }
 
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-__attribute__((target_clones("avx2,fma", "default")))
-#endif
+SHADOWSG_KERNEL_CLONES
 void LeafThetas(const SphereBlocks& l, size_t begin, int n, const double* x, float mx, float my, float mz, float* out) {
   if (n == static_cast<int>(SphereBlocks::kLanes) && begin % SphereBlocks::kLanes == 0)
     LeafThetasN<SphereBlocks::kLanes>(l, begin, n, x, mx, my, mz, out);
