@@ -65,7 +65,7 @@ std::vector<long> EliminationOrder(const LobeNormalEquations& eq);
 // k that elimination keeps, and a lobe needed for a shadow comes early even
 // when it lights the plane little: the low sun of pub_torus_sunrise lights it
 // at 4 degrees and was twelfth by its share of the image. Fast, 10 seeds,
-// 2 threads, against the share order (README): sunrise 37.80 (36.91-38.34) ->
+// 2 threads, against the share order (solver/EXPERIMENTS.md): sunrise 37.80 (36.91-38.34) ->
 // 39.12 (37.39-39.63) dB median (range), interior 34.25 (33.74-34.58) ->
 // 34.22 (33.88-34.33), sunsky and the cone scene level.
 std::vector<SgLobe> OrderByElimination(const ShadowPlaneModel& model, const std::vector<double>& weight,

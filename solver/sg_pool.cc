@@ -16,7 +16,7 @@ namespace {
 // the size path's. On pub_torus_sunsky (about 45 dB) 1e-6 is 3 % of the
 // error, six times the tolerance; with the pool chosen on the judging set it
 // kept sets 2-3 % worse there, -0.05 dB on most seeds (balanced, 10 seeds;
-// README).
+// solver/EXPERIMENTS.md).
 constexpr double kPoolNoiseFloor = 1e-7;
 
 }  // namespace

@@ -50,7 +50,7 @@ SgLighting PoolLobeSystem(LobeNormalEquations eq, std::vector<SgLobe> lobes, con
 // left at zero amplitude are dropped. The restarts' local minima differ in
 // where they put lobes that the shadows barely pin down; the pool lets them
 // share the work: balanced, 10 seeds, pub_torus_sunrise 39.80 -> 40.37 dB
-// median, seed spread 0.93 -> 0.57 (README). heldout_path (optional): the
+// median, seed spread 0.93 -> 0.57 (solver/EXPERIMENTS.md). heldout_path (optional): the
 // error of each leading set on the hold model's points.
 SgLighting PoolLobes(const ShadowPlaneModel& model, const std::vector<double>& weight,
                      const std::vector<Eigen::Vector3f>& targets, const std::vector<SgLighting>& fits,

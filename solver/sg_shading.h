@@ -42,7 +42,7 @@ inline double VisibilitySteepnessDerivative(double x) {
 // pixel has. `sg` caps it at k(15) = 533, where the sigmoid's 10-90 % edge
 // spans 4.4 / 533 rad = 0.47 degrees, about the sun's disc: a sharp lobe's
 // shadow keeps a finite edge, so the fit sees how far it is from the data
-// there instead of a step. Fast, 10 seeds (README): three suns +1.2 dB a
+// there instead of a step. Fast, 10 seeds (solver/EXPERIMENTS.md): three suns +1.2 dB a
 // seed on average, sunrise +0.6 with its seed spread 0.72 -> 0.14 dB, sunsky
 // level. A cap of 145 (k(10)) cost sunsky 0.3 dB, 1335 (k(20)) gained less.
 // Unbounded: the paper's model.

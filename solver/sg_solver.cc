@@ -37,7 +37,7 @@ SgSolverOptions SgSolverOptions::Budget(const std::string& name) {
     // No grid search of the strongest shadow. Over 80 fast runs (8 scenes x
     // 10 seeds) it moved a lobe in 5 and changed their PSNR by -0.02..+0.33
     // dB (the one large gain: an interior seed), at 6-15 % of the solve on
-    // six scenes (README, stop 43). The other budgets keep it.
+    // six scenes (solver/EXPERIMENTS.md, stop 43). The other budgets keep it.
     o.scan_rounds = 0;
     o.pool_path_end = true;
     return o;
@@ -46,12 +46,12 @@ SgSolverOptions SgSolverOptions::Budget(const std::string& name) {
   // pool of three such fits matched the pool of three on the finer one
   // (300 axes, 8 sharpness values, 25 final LM iterations; balanced before)
   // on pub_torus_sunrise and the interior, 10 seeds, at 0.6-0.7x its time
-  // (README).
+  // (solver/EXPERIMENTS.md).
   o.restarts = 3;
   // With three fits and their pool, a size path stops after two steps
   // without progress: 0.76-0.93x the time with the changes beside it (the
   // bounce race decided once, the pool on the restarts' prepared pixels) at
-  // the same medians, 10 seeds (README). For `fast`'s one fit it saved
+  // the same medians, 10 seeds (solver/EXPERIMENTS.md). For `fast`'s one fit it saved
   // 1-13 % and cost one interior seed 0.34 dB: not there.
   o.patience = 2;
   // The restarts' pool also offers each lobe at 4x its sharpness. On
@@ -60,7 +60,7 @@ SgSolverOptions SgSolverOptions::Budget(const std::string& name) {
   // near 30-40, and the spread of 10 seeds narrowed 0.35 -> 0.30 dB (every
   // other scene within 0.02 dB a seed). `fast`'s one fit, its pool judged
   // on the 2000 held-out pixels, kept a worse set with it (synth_sun seed 7
-  // -0.15 dB): not there. (README, stop 52.)
+  // -0.15 dB): not there. (solver/EXPERIMENTS.md, stop 52.)
   o.pool_sharpness.push_back(4);
   if (name != "best") return o;
   // best: six fits on the finer dictionary and their pool. (On the

@@ -95,7 +95,7 @@ struct SgSolverOptions {
   // 0.02 -> 0.005 (balanced, seeds 0-9 interleaved): every interior and
   // sunrise seed up by 0.02-0.44 dB (medians +0.09 and +0.13), the interior's
   // spread 0.40 -> 0.30, a few lobes more, the same time; sunsky's sun and
-  // sky kept 2-3 lobes. None (0) added 0.02 dB for twice the lobes (README).
+  // sky kept 2-3 lobes. None (0) added 0.02 dB for twice the lobes (solver/EXPERIMENTS.md).
   double size_tolerance = 0.005;
   int max_atoms = 160;             // active-set size cap of the dictionary fit
   double kkt_tolerance = 1e-4;     // stop the dictionary fit when no atom's gradient beats this (relative)
@@ -110,7 +110,7 @@ struct SgSolverOptions {
   // it and 6 iterations instead of 8, fast, 10 seeds, interleaved: three
   // suns 33.18 -> 33.29 dB median (spread 0.68 -> 0.24), the one sun's
   // spread 0.58 -> 0.26, the interior's 0.46 -> 0.29 (+0.07 dB), the
-  // environment map 2.06 -> 1.84 s; 0.82-1.01x the time (README). With 8
+  // environment map 2.06 -> 1.84 s; 0.82-1.01x the time (solver/EXPERIMENTS.md). With 8
   // iterations it gained less and took 1.01-1.14x the time.
   double path_warm_radius = 4;
   // LM iterations after a grid search moved the strongest lobe (scan_rounds).
@@ -147,7 +147,7 @@ struct SgSolverOptions {
   // lobes streak the shade beside the object (pub_torus_sunrise), where a
   // blend of wider ones lies smoothly. 10 seeds: every sunrise seed up by
   // 0.23-0.56 dB (fast) and 0.13-0.27 (balanced), the interior's balanced
-  // spread 0.30 -> 0.23, at 0.98-1.07x the time (README). `balanced` and
+  // spread 0.30 -> 0.23, at 0.98-1.07x the time (solver/EXPERIMENTS.md). `balanced` and
   // `best` add 4x (Budget).
   std::vector<double> pool_sharpness = {0.25, 0.5, 2};
   // The pool also offers the flattest lobe the refinement allows (sharpness
@@ -163,7 +163,7 @@ struct SgSolverOptions {
   // seeds had put such a slope into a lobe below the horizon. 10 seeds,
   // interleaved: sunsky balanced 44.53 (43.94-44.86) -> 44.90 (44.61-44.97)
   // dB, sunrise +0.05 dB balanced and +0.12 fast, no scene's median lower,
-  // 0.97-1.06x the time (README, stop 44).
+  // 0.97-1.06x the time (solver/EXPERIMENTS.md, stop 44).
   double pool_sky_basis = 0.5;
   // The pool of several fits chooses its leading set on the judging set
   // (judge_pixels) instead of the held-out set. On the held-out set's 2000
@@ -181,7 +181,7 @@ struct SgSolverOptions {
   // pub_torus_sunsky the direct fit places the sun well with 2-3 lobes while
   // the bounce model's own fits vary with the pixels. Balanced, 10 seeds,
   // interleaved: sunsky 44.50 (43.18-44.75) -> 44.56 (43.64-44.83) dB,
-  // three suns' spread 0.33 -> 0.18, at 0.99-1.02x the time (README).
+  // three suns' spread 0.33 -> 0.18, at 0.99-1.02x the time (solver/EXPERIMENTS.md).
   bool pool_across_models = true;
   // Where the model with the bounce left the race in every restart it
   // entered (fast: its one restart), the direct model's fits are still
@@ -191,7 +191,7 @@ struct SgSolverOptions {
   // left the race on nine seeds of ten, yet the direct fit's lobes with the
   // bounce, the sky basis and the sharpness copies reach the basin
   // `balanced` finds: 43.18 -> 44.30 dB median, spread 1.20 -> 0.19, 0.97
-  // -> 1.38 s; the other scenes unchanged (10 seeds, interleaved; README).
+  // -> 1.38 s; the other scenes unchanged (10 seeds, interleaved; solver/EXPERIMENTS.md).
   bool pool_direct_into_bounce = true;
   // A model's single fit, pooled (above), also offers the lobes of its size
   // path's last model where the size rule chose a smaller one: lobes the
@@ -199,7 +199,7 @@ struct SgSolverOptions {
   // may still blend in. `fast` (one fit) only; `balanced` and `best` pool
   // their restarts instead. Fast, 10 seeds: the interior's two low seeds
   // 34.42 -> 34.51 and 34.44 -> 34.49 dB (spread 0.33 -> 0.26), every
-  // scene's spread within 0.3 dB, medians within 0.02 dB (README, stop 50).
+  // scene's spread within 0.3 dB, medians within 0.02 dB (solver/EXPERIMENTS.md, stop 50).
   bool pool_path_end = false;
   // When the model has the casters' bounce: also fit without it and keep
   // whichever has the lower held-out error (up to twice the time).
@@ -228,7 +228,7 @@ struct SgSolverOptions {
   // 43.16 -> 44.50 dB median, three suns 33.12 -> 33.40 (spread 0.49 ->
   // 0.33), the environment map's spread 0.47 -> 0.13, no seed lower; 1.67x,
   // 1.41x and 1.09x the time. The five scenes whose first race the bounce
-  // won on every seed are unchanged (README).
+  // won on every seed are unchanged (solver/EXPERIMENTS.md).
   bool later_restarts_bounce = true;
   // Where a restart's direct-only model beat the model with the bounce (or
   // alone finished), its lobes are refined once more with the bounce

@@ -83,7 +83,7 @@ ShadowPlaneModel MakeShadowPlaneModel(const Plane& plane, const std::vector<Eige
     // Uncapped, the plane's PSNR rises on three of the four development
     // scenes (fast: pub_cone_area1 15.12 -> 15.71 dB) by lighting that is
     // worse (angular error 39 -> 88 degrees there, 5.5 -> 8.6 on sunsky), and
-    // sunrise loses 0.6 dB with a 4 dB seed spread (README).
+    // sunrise loses 0.6 dB with a 4 dB seed spread (solver/EXPERIMENTS.md).
     model.cap_occlusion = true;
     model.upper_hemisphere_only = false;
     model.max_steepness = kSgMaxVisibilitySteepness;

@@ -744,7 +744,7 @@ TEST(SgSolver, PathOrdersLobesByBackwardElimination) {
   }
 }
 
-// The budgets' grid search of the strongest shadow (README, stop 43): `fast`
+// The budgets' grid search of the strongest shadow (solver/EXPERIMENTS.md, stop 43): `fast`
 // runs none, `balanced` and `best` one round.
 TEST(SgSolver, FastBudgetRunsNoGridSearch) {
   EXPECT_EQ(SgSolverOptions::Budget("fast").scan_rounds, 0);
