@@ -261,18 +261,36 @@ std::array<Eigen::MatrixXf, 3> CasterBounce::Irradiance(const std::vector<Eigen:
 }
 
 Eigen::MatrixXf CasterBounce::FormFactors(const std::vector<Eigen::Vector3d>& points) const {
-  Eigen::MatrixXf k(static_cast<long>(points.size()), static_cast<long>(patches_.size()));
+  const long n = static_cast<long>(points.size()), m = static_cast<long>(patches_.size());
+  Eigen::MatrixXf k(n, m);
+  // Column by column (k is column-major) over the points' coordinates laid
+  // out apart, so each patch's pass is contiguous and vectorises; row by row
+  // it wrote one float per column, n floats apart.
+  Eigen::Matrix<double, Eigen::Dynamic, 3> xyz(n, 3);
+  for (long r = 0; r < n; ++r) xyz.row(r) = points[r].transpose();
+  const double* px = xyz.col(0).data();
+  const double* py = xyz.col(1).data();
+  const double* pz = xyz.col(2).data();
 #pragma omp parallel for schedule(static)
-  for (long r = 0; r < static_cast<long>(points.size()); ++r)
-    for (size_t j = 0; j < patches_.size(); ++j) {
-      const Patch& p = patches_[j];
-      const Eigen::Vector3d v = p.centre - points[r];
-      const double d2 = v.squaredNorm();
-      const double up = normal_.dot(v), facing = -p.normal.dot(v);
-      // cos_x cos_j / d^2 = up facing / d^4, with the disk's area term.
-      k(r, static_cast<long>(j)) =
-          up > 0 && facing > 0 ? static_cast<float>(up * facing / d2 * p.area / (d2 + p.area / M_PI)) : 0.0f;
+  for (long j = 0; j < m; ++j) {
+    const Patch& p = patches_[j];
+    const double cx = p.centre.x(), cy = p.centre.y(), cz = p.centre.z();
+    const double nx = p.normal.x(), ny = p.normal.y(), nz = p.normal.z();
+    const double ux = normal_.x(), uy = normal_.y(), uz = normal_.z();
+    const double area = p.area, disk = p.area / M_PI;
+    float* col = k.col(j).data();
+    for (long r = 0; r < n; ++r) {
+      const double vx = cx - px[r], vy = cy - py[r], vz = cz - pz[r];
+      // A point at a patch's centre: 0 / 0 there, 0 as the test gave before.
+      const double d2 = std::max(vx * vx + vy * vy + vz * vz, std::numeric_limits<double>::min());
+      const double up = ux * vx + uy * vy + uz * vz, facing = -(nx * vx + ny * vy + nz * vz);
+      // cos_x cos_j / d^2 = up facing / d^4, with the disk's area term; zero
+      // where the patch faces away or lies below the plane. (Clamped by max,
+      // not selected by a test: GCC keeps a comparison that may trap out of a
+      // vectorised loop.)
+      col[r] = static_cast<float>(std::max(up, 0.0) * std::max(facing, 0.0) / d2 * area / (d2 + disk));
     }
+  }
   return k;
 }
 

@@ -110,6 +110,35 @@ std::vector<Eigen::Vector3d> GroundGrid(int n, double half) {
   return points;
 }
 
+// K(x, j) = cos_x cos_j / d^2 with the disk's area term, zero where the
+// patch faces away from x or x sees it from below; finite (zero) at a patch's
+// own centre.
+TEST(CasterBounce, FormFactorsFollowTheDiskFormula) {
+  const SphereOnPlane s;
+  const CasterBounce bounce({s.mesh}, {Eigen::Vector3d::Constant(SphereOnPlane::kAlbedo)}, s.casters,
+                            Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ());
+  std::vector<Eigen::Vector3d> points = GroundGrid(12, 3.0);
+  points.push_back(bounce.patches()[0].centre);
+  const Eigen::MatrixXf k = bounce.FormFactors(points);
+  ASSERT_EQ(k.rows(), static_cast<long>(points.size()));
+  ASSERT_EQ(k.cols(), static_cast<long>(bounce.size()));
+  long zeros = 0, lit = 0;
+  for (long r = 0; r < k.rows(); ++r)
+    for (long j = 0; j < k.cols(); ++j) {
+      const CasterBounce::Patch& p = bounce.patches()[static_cast<size_t>(j)];
+      const Eigen::Vector3d v = p.centre - points[static_cast<size_t>(r)];
+      const double d2 = v.squaredNorm(), up = v.z(), facing = -p.normal.dot(v);
+      const double expected = up > 0 && facing > 0 ? up * facing / d2 * p.area / (d2 + p.area / M_PI) : 0.0;
+      ASSERT_TRUE(std::isfinite(k(r, j))) << r << " " << j;
+      EXPECT_NEAR(k(r, j), expected, 1e-6 * expected + 1e-12) << r << " " << j;
+      (expected > 0 ? lit : zeros) += 1;
+    }
+  EXPECT_EQ(k(k.rows() - 1, 0), 0.0f);
+  // Both cases occur: the plane sees the sphere's lower half, not its upper.
+  EXPECT_GT(lit, k.size() / 10);
+  EXPECT_GT(zeros, k.size() / 10);
+}
+
 TEST(CasterBounce, FactoredFormFactorsStayWithinTheirTolerance) {
   const SphereOnPlane s;
   const CasterBounce bounce({s.mesh}, {Eigen::Vector3d::Constant(SphereOnPlane::kAlbedo)}, s.casters,
