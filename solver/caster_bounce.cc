@@ -271,12 +271,12 @@ Eigen::MatrixXf CasterBounce::FormFactors(const std::vector<Eigen::Vector3d>& po
   const double* px = xyz.col(0).data();
   const double* py = xyz.col(1).data();
   const double* pz = xyz.col(2).data();
+  const double ux = normal_.x(), uy = normal_.y(), uz = normal_.z();
 #pragma omp parallel for schedule(static)
   for (long j = 0; j < m; ++j) {
     const Patch& p = patches_[j];
     const double cx = p.centre.x(), cy = p.centre.y(), cz = p.centre.z();
     const double nx = p.normal.x(), ny = p.normal.y(), nz = p.normal.z();
-    const double ux = normal_.x(), uy = normal_.y(), uz = normal_.z();
     const double area = p.area, disk = p.area / M_PI;
     float* col = k.col(j).data();
     for (long r = 0; r < n; ++r) {
