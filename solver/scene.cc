@@ -2,20 +2,38 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "calib/conventions.h"
 
 namespace shadowsg {
 
+namespace {
+
+// MinimalRotationToZ(plane.normal), kept for the last normal seen on this
+// thread: the ray casters ask once a ray (millions a solve, where building
+// the rotation took about 3 % of a run's CPU time), always of one plane.
+const Eigen::Matrix3d& PlaneRotation(const Plane& plane) {
+  thread_local Eigen::Vector3d normal = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  thread_local Eigen::Matrix3d rotation;
+  if (!(plane.normal.array() == normal.array()).all()) {
+    rotation = MinimalRotationToZ(plane.normal);
+    normal = plane.normal;
+  }
+  return rotation;
+}
+
+}  // namespace
+
 bool PlaneRectContains(const Plane& plane, const Eigen::Vector3d& p) {
-  const Eigen::Vector3d local = MinimalRotationToZ(plane.normal) * (p - plane.xyz);
+  const Eigen::Vector3d local = PlaneRotation(plane) * (p - plane.xyz);
   return std::abs(local.x()) <= plane.scale.x() && std::abs(local.y()) <= plane.scale.y();
 }
 
 Eigen::Vector3d PlaneAlbedo(const Plane& plane, const Eigen::Vector3d& p) {
   if (!plane.albedo_texture || plane.albedo_texture->empty()) return plane.diffuse;
   const Image& tex = *plane.albedo_texture;
-  const Eigen::Vector3d local = MinimalRotationToZ(plane.normal) * (p - plane.xyz);
+  const Eigen::Vector3d local = PlaneRotation(plane) * (p - plane.xyz);
   // Texel centres at integers, as for camera pixels.
   const double fu = std::clamp((local.x() / plane.scale.x() + 1) / 2 * tex.width - 0.5, 0.0, tex.width - 1.0);
   const double fv = std::clamp((1 - local.y() / plane.scale.y()) / 2 * tex.height - 0.5, 0.0, tex.height - 1.0);

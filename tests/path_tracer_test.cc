@@ -4,6 +4,7 @@
 #include <omp.h>
 
 #include <cmath>
+#include <random>
 
 #include "calib/camera.h"
 #include "calib/conventions.h"
@@ -334,6 +335,35 @@ TEST(PathTracer, PlaneTextureMultipliesAlbedo) {
   EXPECT_NEAR((pixel_at({-0.6, 0.6, 0}) - Eigen::Vector3f(1, 0, 0)).norm(), 0, 1e-5);
   EXPECT_NEAR((pixel_at({0.6, -0.6, 0}) - Eigen::Vector3f(1, 1, 0.5)).norm(), 0, 1e-5);
   EXPECT_EQ(pixel_at({1.15, 0, 0}).norm(), 0.0f);
+}
+
+// PlaneRectContains keeps the last plane's rotation on each thread: planes
+// of different normals asked in turn must each get their own rectangle.
+TEST(PathTracer, PlaneRectContainsFollowsEachPlaneItIsGiven) {
+  Plane flat, tilted;
+  flat.scale = Eigen::Vector3d(1.0, 0.2, 1);
+  tilted.scale = flat.scale;
+  tilted.xyz = Eigen::Vector3d(0.1, -0.2, 0.3);
+  tilted.normal = Eigen::Vector3d(1, 0.5, 0.8).normalized();
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> u(-1.2, 1.2);
+  int differ = 0;
+  for (int i = 0; i < 2000; ++i) {
+    // A point of either plane, tested against both in turn.
+    const Plane& own = i % 2 ? tilted : flat;
+    const Eigen::Matrix3d to_world = MinimalRotationToZ(own.normal).transpose();
+    const Eigen::Vector3d p = own.xyz + to_world * Eigen::Vector3d(u(rng), u(rng), 0);
+    bool answers[2];
+    for (int k = 0; k < 2; ++k) {
+      const Plane& plane = k ? tilted : flat;
+      const Eigen::Vector3d local = MinimalRotationToZ(plane.normal) * (p - plane.xyz);
+      const bool inside = std::abs(local.x()) <= plane.scale.x() && std::abs(local.y()) <= plane.scale.y();
+      answers[k] = PlaneRectContains(plane, p);
+      ASSERT_EQ(answers[k], inside) << "point " << i << ", plane " << k;
+    }
+    differ += answers[0] != answers[1];
+  }
+  EXPECT_GT(differ, 200);  // the two rectangles disagree often enough to tell them apart
 }
 
 TEST(PathTracer, DeterministicForAnyThreadCountAndSeedDependent) {
