@@ -11,8 +11,9 @@ namespace shadowsg {
 namespace {
 
 // MinimalRotationToZ(plane.normal), kept for the last normal seen on this
-// thread: the ray casters ask once a ray (millions a solve, where building
-// the rotation took about 3 % of a run's CPU time), always of one plane.
+// thread: the ray casters ask once a ray, always of one plane (about 1.3
+// million rays in a sunsky solve with its insertion preview, where building
+// the rotation each time took 2.8 % of the CPU samples).
 const Eigen::Matrix3d& PlaneRotation(const Plane& plane) {
   thread_local Eigen::Vector3d normal = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
   thread_local Eigen::Matrix3d rotation;
