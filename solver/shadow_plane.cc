@@ -106,11 +106,10 @@ ShadowPlaneModel MakeShadowPlaneModel(const Scene& scene, const PlanePixels& pix
   return MakeShadowPlaneModel(scene.plane, pixels.point, std::move(occluders), shading);
 }
 
-void AddCasterBounce(const Scene& scene, ShadowPlaneModel* model) {
+void AddCasterBounce(const Scene& scene, const RayCaster& casters, ShadowPlaneModel* model) {
   std::vector<TriangleMesh> meshes;
   std::vector<Eigen::Vector3d> albedo;
   for (const SceneObject* o : scene.Casters()) meshes.push_back(o->WorldMesh()), albedo.push_back(o->diffuse);
-  const RayCaster casters = BuildRayCaster(scene.Casters());
   model->bounce = std::make_shared<const CasterBounce>(meshes, albedo, casters, scene.plane.xyz, model->normal);
   ShadowPlaneModel ground = *model;
   ground.bounce.reset();

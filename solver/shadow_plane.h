@@ -108,8 +108,10 @@ ShadowPlaneModel MakeShadowPlaneModel(const Plane& plane, const std::vector<Eige
                                       std::vector<SphereTree> occluders, ShadingModel shading);
 
 // Adds the casters' bounce (solver/caster_bounce.h) to a model whose
-// visibility (spheres or exact) is already set; `sg` only.
-void AddCasterBounce(const Scene& scene, ShadowPlaneModel* model);
+// visibility (spheres or exact) is already set; `sg` only. casters: the
+// scene's casters (BuildRayCaster(scene.Casters())), which the caller has
+// built already: a scanned mesh's build is not free.
+void AddCasterBounce(const Scene& scene, const RayCaster& casters, ShadowPlaneModel* model);
 
 // Direct shading of each lobe at every point of the model, per unit amplitude
 // and unit albedo/pi, without the bounce: points x lobes. lobe_hints (one per

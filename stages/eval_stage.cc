@@ -46,7 +46,7 @@ void RunEval(const fs::path& scene_dir, const fs::path& lighting_file, const fs:
     ShadowPlaneModel model = PrepareShadowPlane(
         scene, scene_dir, pixels, o.sg_model == "sg" ? ShadingModel::kSg : ShadingModel::kPaper, ctx);
     if (o.visibility == "exact") model.exact = MakeExactVisibility(scene);  // cosine exact, mesh visibility
-    if (o.bounce) AddCasterBounce(scene, &model);
+    if (o.bounce) AddCasterBounce(scene, casters, &model);
     est.sg = lights.sg;
     CompleteSgEstimate(model, &est);
   }

@@ -81,12 +81,12 @@ LightingEstimate SolveWithSgPaper(Scene& scene, const fs::path& scene_dir, const
 }
 
 LightingEstimate SolveWithSg(Scene& scene, const fs::path& scene_dir, const PlanePixels& pixels,
-                             const SolveOptions& o, const StageContext& ctx) {
+                             const RayCaster& casters, const SolveOptions& o, const StageContext& ctx) {
   ShadowPlaneModel model = PrepareShadowPlane(scene, scene_dir, pixels, ShadingModel::kSg, ctx);
   model.search = o.ssdf == "c2f" ? SsdfSearch::kCoarseToFine : SsdfSearch::kExact;
   // --visibility exact: fit and re-render with the meshes' ray-cast visibility.
   if (o.visibility == "exact") model.exact = MakeExactVisibility(scene);
-  if (o.bounce != "off") AddCasterBounce(scene, &model);
+  if (o.bounce != "off") AddCasterBounce(scene, casters, &model);
   SgSolverOptions so = SgSolverOptions::Budget(o.budget);
   // auto: the fits with and without the bounce race on held-out pixels
   // (the model's other errors can favour either; README).
@@ -194,7 +194,7 @@ void RunSolve(const fs::path& scene_dir, const fs::path& out_dir, const SolveOpt
   }
   LightingEstimate est;
   if (o.method == "sg-paper") est = SolveWithSgPaper(scene, scene_dir, pixels, o, ctx);
-  else if (o.method == "sg") est = SolveWithSg(scene, scene_dir, pixels, o, ctx);
+  else if (o.method == "sg") est = SolveWithSg(scene, scene_dir, pixels, casters, o, ctx);
   else est = SolveWithBaseline(scene, pixels, casters, o, ctx);
   // The solvers' last guard dropped what was not lighting; say so.
   if (const int bad = est.extra.value("invalid_lobes_removed", 0); bad > 0)

@@ -74,10 +74,10 @@ double BruteForceBounce(const SphereOnPlane& s, const Eigen::Vector3d& x, const 
   return b;
 }
 
-TEST(CasterBounce, FirstBounceOffASphereMatchesBruteForce) {
+void ExpectFirstBounceMatchesBruteForce(const CasterBounceOptions& options) {
   const SphereOnPlane s;
   const CasterBounce bounce({s.mesh}, {Eigen::Vector3d::Constant(SphereOnPlane::kAlbedo)}, s.casters,
-                            Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ());
+                            Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), options);
   const std::vector<Eigen::Vector3d> points = {{0.75, 0, 0}, {0, -1.0, 0}, {-1.5, 0.4, 0}, {1.2, 1.2, 0}, {0, 3, 0}};
   // A high sun and one 6 degrees above the horizon (the widened lobe of v_ij
   // would put half of that below the plane without the upper share).
@@ -96,6 +96,17 @@ TEST(CasterBounce, FirstBounceOffASphereMatchesBruteForce) {
           << "sun " << mu.transpose() << ", point " << points[i].transpose();
     }
   }
+}
+
+TEST(CasterBounce, FirstBounceOffASphereMatchesBruteForce) { ExpectFirstBounceMatchesBruteForce({}); }
+
+// A mesh finer than the patches' grid (a scan): the sphere's 20480 faces
+// against a grid of 2048 points. The patches are clustered from every fifth
+// face, and every face still gives its area to one of them.
+TEST(CasterBounce, FirstBounceOffAFineMeshMatchesBruteForce) {
+  CasterBounceOptions options;
+  options.surface_points = 2000;
+  ExpectFirstBounceMatchesBruteForce(options);
 }
 
 // The plane points a solver gathers the bounce at: a grid around the sphere's
@@ -219,7 +230,7 @@ TEST(CasterBounce, MatchesThePathTracersBounces) {
   ShadowPlaneModel model = PrepareShadowPlane(scene, direct, pixels, ShadingModel::kSg, QuietContext(2));
   const SgLighting lighting = *ReadSynthSpec(tmp / "direct.json").lights.sg;
   const std::vector<Eigen::Vector3f> plain = RenderShadowPlane(model, lighting);
-  AddCasterBounce(scene, &model);
+  AddCasterBounce(scene, casters, &model);
   const std::vector<Eigen::Vector3f> lit = RenderShadowPlane(model, lighting);
   // The plane's share of light that came off the casters: path tracer (two
   // bounces minus none, same samples) against the model, per pixel.
@@ -274,9 +285,10 @@ TEST(CasterBounce, SolverKeepsTheBounceWhereTheImageHasIt) {
 // plane pixels: what SolveSg takes.
 std::pair<ShadowPlaneModel, std::vector<Eigen::Vector3f>> ModelWithBounce(const fs::path& dir) {
   Scene scene = LoadScene(dir);
-  const PlanePixels pixels = FindPlanePixels(scene, BuildRayCaster(scene.Casters()));
+  const RayCaster casters = BuildRayCaster(scene.Casters());
+  const PlanePixels pixels = FindPlanePixels(scene, casters);
   ShadowPlaneModel model = PrepareShadowPlane(scene, dir, pixels, ShadingModel::kSg, QuietContext(2));
-  AddCasterBounce(scene, &model);
+  AddCasterBounce(scene, casters, &model);
   std::vector<Eigen::Vector3f> targets;
   for (size_t k = 0; k < pixels.size(); ++k) targets.push_back(scene.image.rgb(pixels.pixel[k]).cast<float>());
   return {std::move(model), std::move(targets)};
