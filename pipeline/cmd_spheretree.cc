@@ -50,9 +50,9 @@ void RegisterSphereTreeCommand(CLI::App& app) {
     WriteSph(opt->out, tree);
     std::printf("wrote %s: %d levels, branching %d, %d leaves in %zu slots; %.2f s on %d threads\n",
                 opt->out.c_str(), tree.levels, tree.branching, s.leaves, tree.nodes.size(), s.seconds, ctx.threads);
-    std::printf("surface %d points (spacing %.4g), %d medial spheres, leaf stand-off %.4f and growth %.4f of the "
-                "diagonal\n",
-                s.surface_points, s.spacing, s.medial_spheres, s.leaf_standoff, s.leaf_growth);
+    std::printf("surface %d points (spacing %.4g), %d of them in the cover, %d medial spheres, leaf stand-off %.4f "
+                "and growth %.4f of the diagonal\n",
+                s.surface_points, s.spacing, s.cover_points, s.medial_spheres, s.leaf_standoff, s.leaf_growth);
     if (s.boundary_edges > 0)
       ctx.Warn("the mesh is open (" + std::to_string(s.boundary_edges) + " boundary edges): inside/outside is a guess");
     if (s.inverted) ctx.Warn("the faces wind inwards (negative volume); normals were flipped");

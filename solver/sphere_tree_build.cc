@@ -56,7 +56,27 @@ constexpr int kFallbackNear = 8;
 // Random stream ids, so that each use of the seed draws its own numbers.
 constexpr uint64_t kSeedStream = 1;
 
+// A grid of more than this many times surface_points (a scan's vertices) is
+// thinned for the medial balls and the leaf cover (EvenSubset).
+constexpr double kDenseGrid = 1.5;
+
 using Points = std::vector<Eigen::Vector3d>;
+
+// About `target` of the points, evenly spread: the first point (in index
+// order, so mesh vertices first) of each occupied cell of a voxel grid. A
+// surface of area A meets about 1.5 A / h^2 cells of size h (1 to sqrt(3)
+// per h^2 of area by its orientation). *cell gets h.
+std::vector<int> EvenSubset(const Points& pts, double area, int target, double* cell) {
+  *cell = std::sqrt(1.5 * area / target);
+  std::unordered_set<uint64_t> seen;
+  std::vector<int> out;
+  for (size_t i = 0; i < pts.size(); ++i) {
+    uint64_t key = 0;
+    for (int k = 0; k < 3; ++k) key = Mix64(key ^ static_cast<uint64_t>(std::llround(std::floor(pts[i][k] / *cell))));
+    if (seen.insert(key).second) out.push_back(static_cast<int>(i));
+  }
+  return out;
+}
 
 struct Candidate {
   Eigen::Vector3d centre;
@@ -369,17 +389,40 @@ SphereTree BuildSphereTree(const TriangleMesh& mesh, const SphereTreeBuildOption
 
   Report(progress, 0.0, "sampling the surface");
   const SurfaceGrid grid = SampleSurfaceGrid(mesh, options.surface_points);
-  const Points& pts = grid.points;
-  Eigen::Vector3d lo = pts[0], hi = pts[0];  // bounds of the referenced vertices only
-  for (const auto& p : pts) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  const Points& all = grid.points;
+  Eigen::Vector3d lo = all[0], hi = all[0];  // bounds of the referenced vertices only
+  for (const auto& p : all) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
   const double diag = (hi - lo).norm();
-  sum.surface_points = static_cast<int>(pts.size());
+  sum.surface_points = static_cast<int>(all.size());
   sum.spacing = grid.spacing;
+
+  // The points the medial balls and the leaf cover see: the grid, or for a
+  // mesh much finer than it (a scan) an even subset of its vertices. On a
+  // bunny cut to 1.1M faces the whole grid (556k points) overflowed the
+  // cover's lists, which then dropped half the candidates: 322 leaves, mean
+  // protrusion 0.0119 of the diagonal against 481 and 0.0063 from the
+  // 69k-face original, and 6.9 s (solver/EXPERIMENTS.md, "Stop 59").
+  std::vector<int> cover_index;
+  double spacing = grid.spacing;
+  if (all.size() > kDenseGrid * options.surface_points) {
+    double cell = 0;
+    cover_index = EvenSubset(all, MeshArea(mesh), options.surface_points, &cell);
+    spacing = std::max(spacing, cell);
+  }
+  const bool thinned = !cover_index.empty();
+  Points thin;
+  for (int i : cover_index) thin.push_back(all[i]);
+  const Points& pts = thinned ? thin : all;
+  sum.cover_points = static_cast<int>(pts.size());
+  auto grid_index = [&](size_t i) { return thinned ? static_cast<size_t>(cover_index[i]) : i; };
 
   Report(progress, 0.1, "medial spheres");
   const PointKdTree kd(pts);
-  std::vector<Eigen::Vector3d> inward(grid.normals.size());
-  for (size_t i = 0; i < inward.size(); ++i) inward[i] = sum.inverted ? grid.normals[i] : -grid.normals[i];
+  std::vector<Eigen::Vector3d> inward(pts.size());
+  for (size_t i = 0; i < inward.size(); ++i) {
+    const Eigen::Vector3d& n = grid.normals[grid_index(i)];
+    inward[i] = sum.inverted ? n : Eigen::Vector3d(-n);
+  }
   // Seeds: mesh vertices first (corners and rims, where medial balls are
   // small and random points rarely land), up to a share of the budget, then
   // random grid points.
@@ -387,16 +430,20 @@ SphereTree BuildSphereTree(const TriangleMesh& mesh, const SphereTreeBuildOption
   {
     std::vector<int> verts, others;
     for (size_t i = 0; i < pts.size(); ++i)
-      if (inward[i].squaredNorm() > 0) (grid.vertex_of[i] >= 0 ? verts : others).push_back(static_cast<int>(i));
+      if (inward[i].squaredNorm() > 0)
+        (grid.vertex_of[grid_index(i)] >= 0 ? verts : others).push_back(static_cast<int>(i));
     RandomStream rng(options.seed, kSeedStream, 0);
     auto take_random = [&](std::vector<int>& from, size_t n) {
       n = std::min(n, from.size());
       for (size_t i = 0; i < n; ++i)
         std::swap(from[i], from[std::min(from.size() - 1, i + static_cast<size_t>(rng.Uniform() * (from.size() - i)))]);
       seeds.insert(seeds.end(), from.begin(), from.begin() + n);
+      from.erase(from.begin(), from.begin() + n);
     };
     take_random(verts, options.medial_spheres / kVertexSeedShare);
     take_random(others, options.medial_spheres - seeds.size());
+    // A grid that is all vertices (a fine mesh) has no other points to give.
+    take_random(verts, options.medial_spheres - seeds.size());
   }
   // A ball tangent at p cannot reach past the first wall along the inward
   // normal: half that distance starts the shrinking near its end.
@@ -412,8 +459,8 @@ SphereTree BuildSphereTree(const TriangleMesh& mesh, const SphereTreeBuildOption
     }
   }
   std::vector<Candidate> cands = DistinctCandidates(
-      ShrinkingBallSpheres(kd, inward, seeds, start_radius, kMinMedialRadius * diag, kTouchTolerance * grid.spacing),
-      kDuplicateCell * grid.spacing);
+      ShrinkingBallSpheres(kd, inward, seeds, start_radius, kMinMedialRadius * diag, kTouchTolerance * spacing),
+      kDuplicateCell * spacing);
   sum.medial_spheres = static_cast<int>(cands.size());
 
   // The leaf cover: the smallest common stand-off at which at most max_leaves
@@ -424,7 +471,7 @@ SphereTree BuildSphereTree(const TriangleMesh& mesh, const SphereTreeBuildOption
   const int n_points = static_cast<int>(pts.size());
   std::vector<StandoffList> lists;
   std::vector<int> picks, trial;
-  double cap = grid.spacing;
+  double cap = spacing;
   bool covered = false;
   while (!cands.empty() && cap <= 2 * diag) {
     if (!BuildLists(kd, cands, cap, &lists)) {
@@ -471,10 +518,17 @@ SphereTree BuildSphereTree(const TriangleMesh& mesh, const SphereTreeBuildOption
   }
   lists.clear();
   lists.shrink_to_fit();
+  if (thinned) {
+    // Every grid point may go where its nearest cover point may.
+    std::vector<std::vector<int>> near_all(all.size());
+#pragma omp parallel for schedule(dynamic, 4096)
+    for (long p = 0; p < static_cast<long>(all.size()); ++p) near_all[p] = near_picks[kd.Nearest(all[p])];
+    near_picks = std::move(near_all);
+  }
 
   Report(progress, 0.8, "covering the surface");
   std::vector<int> owner;
-  std::vector<Sphere> leaves = AssignAndShrink(pts, chosen, near_picks, &owner);
+  std::vector<Sphere> leaves = AssignAndShrink(all, chosen, near_picks, &owner);
   sum.leaf_growth = CoverMicroTriangles(grid, owner, near_picks, &leaves) / diag;
   // A leaf holding one point at its centre has radius 0, which reads as an
   // empty slot; it stands for a bit of surface.
@@ -482,7 +536,7 @@ SphereTree BuildSphereTree(const TriangleMesh& mesh, const SphereTreeBuildOption
   for (int o : owner) ++held[o];
   for (size_t j = 0; j < leaves.size(); ++j) {
     if (!held[j] && leaves[j].empty()) continue;  // a pick left without points
-    if (leaves[j].empty()) leaves[j].radius = 0.5 * grid.spacing;
+    if (leaves[j].empty()) leaves[j].radius = 0.5 * spacing;
     used.push_back(static_cast<int>(j));
   }
   sum.leaves = static_cast<int>(used.size());

@@ -49,6 +49,7 @@ struct SphereTreeBuildOptions {
 struct SphereTreeBuildSummary {
   double seconds = 0;
   int surface_points = 0;
+  int cover_points = 0;      // those the medial balls and the leaf cover used (fewer on a fine mesh)
   double spacing = 0;        // longest micro-triangle edge
   int medial_spheres = 0;    // distinct candidates found
   int leaves = 0;            // non-empty leaves (at most B^(L-1))

@@ -10,20 +10,28 @@
 namespace shadowsg {
 namespace {
 
+// Each face's longest edge: what its subdivisions depend on.
+std::vector<double> LongestEdges(const TriangleMesh& m) {
+  std::vector<double> out(m.faces.size());
+  for (size_t i = 0; i < m.faces.size(); ++i) {
+    const Eigen::Vector3d& a = m.vertices[m.faces[i][0]];
+    const Eigen::Vector3d& b = m.vertices[m.faces[i][1]];
+    const Eigen::Vector3d& c = m.vertices[m.faces[i][2]];
+    out[i] = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
+  }
+  return out;
+}
+
 // Grid subdivisions of a face so that its micro-triangle edges are <= spacing.
-int Subdivisions(const TriangleMesh& m, const Eigen::Vector3i& f, double spacing) {
-  const Eigen::Vector3d& a = m.vertices[f[0]];
-  const Eigen::Vector3d& b = m.vertices[f[1]];
-  const Eigen::Vector3d& c = m.vertices[f[2]];
-  const double longest = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
-  return std::max(1, static_cast<int>(std::ceil(longest / spacing)));
+int Subdivisions(double longest_edge, double spacing) {
+  return std::max(1, static_cast<int>(std::ceil(longest_edge / spacing)));
 }
 
 // Points a grid of this spacing adds beyond the vertices.
-double ExtraPoints(const TriangleMesh& m, double spacing) {
+double ExtraPoints(const std::vector<double>& longest_edges, double spacing) {
   double n = 0;
-  for (const auto& f : m.faces) {
-    const double s = Subdivisions(m, f, spacing);
+  for (const double e : longest_edges) {
+    const double s = Subdivisions(e, spacing);
     n += (s + 1) * (s + 2) / 2 - 3;
   }
   return n;
@@ -90,16 +98,19 @@ SurfaceGrid SampleSurfaceGrid(const TriangleMesh& mesh, int target_points) {
   Eigen::Vector3d lo, hi;
   MeshBounds(mesh, &lo, &hi);
   const double extra_wanted = std::max(0.0, static_cast<double>(target_points) - static_cast<double>(verts.size()));
+  const std::vector<double> longest = LongestEdges(mesh);
   double s_lo = std::max((hi - lo).norm(), 1e-300) * 1e-4, s_hi = std::max((hi - lo).norm(), 1e-300) * 2;
-  for (int it = 0; it < kSpacingSearchSteps; ++it) {
+  // A mesh with at least target_points vertices (a scan) is its own grid:
+  // every face stays whole, which is where the search below ends too.
+  for (int it = 0; it < kSpacingSearchSteps && extra_wanted > 0; ++it) {
     const double mid = std::sqrt(s_lo * s_hi);
-    (ExtraPoints(mesh, mid) > extra_wanted ? s_lo : s_hi) = mid;
+    (ExtraPoints(longest, mid) > extra_wanted ? s_lo : s_hi) = mid;
   }
   g.spacing = s_hi;
 
   for (size_t fi = 0; fi < mesh.faces.size(); ++fi) {
     const auto& f = mesh.faces[fi];
-    const int n = Subdivisions(mesh, f, g.spacing);
+    const int n = Subdivisions(longest[fi], g.spacing);
     const Eigen::Vector3d& a = mesh.vertices[f[0]];
     const Eigen::Vector3d& b = mesh.vertices[f[1]];
     const Eigen::Vector3d& c = mesh.vertices[f[2]];

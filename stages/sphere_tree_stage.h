@@ -20,7 +20,8 @@
 namespace shadowsg {
 
 // Bumped whenever BuildSphereTree's output changes for the same input.
-constexpr int kSphereTreeBuilderVersion = 1;
+// 2: meshes with more than 1.5x surface_points vertices (scans) are thinned.
+constexpr int kSphereTreeBuilderVersion = 2;
 
 // The options EnsureSphereTree builds with: the defaults with a fixed seed
 // (not the run's --seed), so every run shares one cached tree per mesh.
