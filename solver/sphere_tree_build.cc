@@ -401,7 +401,7 @@ SphereTree BuildSphereTree(const TriangleMesh& mesh, const SphereTreeBuildOption
   // bunny cut to 1.1M faces the whole grid (556k points) overflowed the
   // cover's lists, which then dropped half the candidates: 322 leaves, mean
   // protrusion 0.0119 of the diagonal against 481 and 0.0063 from the
-  // 69k-face original, and 6.9 s (solver/EXPERIMENTS.md, "Stop 59").
+  // 69k-face original, and 5.2-6.9 s (solver/EXPERIMENTS.md, "Stop 59").
   std::vector<int> cover_index;
   double spacing = grid.spacing;
   if (all.size() > kDenseGrid * options.surface_points) {
