@@ -91,6 +91,23 @@ TEST(MeshIo, ObjAndPlyAgree) {
   ExpectInputError([&] { ReadMesh(tmp / "nofaces.obj"); }, "nofaces.obj", "no faces");
 }
 
+// A vertex line tinyobjloader would read as zeros is an error naming its
+// line; CRLF endings, indented lines and other records are left alone.
+TEST(MeshIo, ObjVertexLinesAreChecked) {
+  const std::string faces = "f 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\n";
+  auto read = [](const std::string& text) {
+    std::istringstream in(text);
+    return ReadObj(in, "m.obj");
+  };
+  EXPECT_EQ(read("v 0 0 0\r\nv 1 0 0\r\n  v 0 1 0\n\tv 0 0 1\nvn 0 0 1\n# v x\n" + faces).vertices.size(), 4u);
+  EXPECT_EQ(read("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1 1\n" + faces).faces.size(), 4u);  // w is allowed
+  ExpectInputError([&] { read("v 0 0 0\nv 1 0\n" + faces); }, "m.obj:2", "vertex needs x y z");
+  ExpectInputError([&] { read("v 0 0 0\n\nv 1 abc 0\n" + faces); }, "m.obj:3", "'abc' is not a number");
+  ExpectInputError([&] { read("v 1.#IND 0 0\n" + faces); }, "m.obj:1", "'1.#IND' is not a number");
+  ExpectInputError([&] { read("v 0 0 0\nv 0 0 inf\n" + faces); }, "m.obj:2", "non-finite");
+  ExpectInputError([&] { read("v 0 0 0\nv 0 0 1e999\n" + faces); }, "m.obj:2", "non-finite");
+}
+
 TEST(SphIo, RoundTripAndTruncation) {
   SphereTree t;
   t.levels = 2;
