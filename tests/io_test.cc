@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <fstream>
 #include <sstream>
 
@@ -89,6 +91,56 @@ TEST(MeshIo, ObjAndPlyAgree) {
   ExpectInputError([&] { ReadMesh(tmp / "empty.obj"); }, "empty.obj", "no vertices");
   WriteText(tmp / "nofaces.obj", "v 0 0 0\nv 1 0 0\n");
   ExpectInputError([&] { ReadMesh(tmp / "nofaces.obj"); }, "nofaces.obj", "no faces");
+}
+
+// Binary PLY in both byte orders and mixed value types, with a list the
+// reader skips (texture coordinates): the same box as the OBJ.
+TEST(MeshIo, BinaryPlyBothByteOrders) {
+  TempDir tmp;
+  const TriangleMesh box = MakeBox(Eigen::Vector3d(1, 2, 3));
+  for (const bool big : {false, true}) {
+    std::string body;
+    auto put = [&](const void* v, size_t n) {
+      std::string bytes(static_cast<const char*>(v), n);
+      if (big) std::reverse(bytes.begin(), bytes.end());  // the test machine is little-endian
+      body += bytes;
+    };
+    for (const auto& v : box.vertices) {
+      const double x = v.x();
+      const float y = static_cast<float>(v.y());
+      const int16_t z = static_cast<int16_t>(v.z());
+      put(&x, 8), put(&y, 4), put(&z, 2);
+    }
+    for (const auto& f : box.faces) {
+      const uint8_t two = 2, three = 3;
+      const float uv[2] = {0.25f, 0.5f};
+      put(&two, 1), put(&uv[0], 4), put(&uv[1], 4);
+      put(&three, 1);
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t i = static_cast<uint32_t>(f[k]);
+        put(&i, 4);
+      }
+    }
+    const std::string file = std::string("box_") + (big ? "be" : "le") + ".ply";
+    WriteText(tmp / file, std::string("ply\nformat ") + (big ? "binary_big_endian" : "binary_little_endian") +
+                              " 1.0\nelement vertex " + std::to_string(box.vertices.size()) +
+                              "\nproperty double x\nproperty float y\nproperty short z\nelement face " +
+                              std::to_string(box.faces.size()) +
+                              "\nproperty list uchar float texcoord\nproperty list uchar uint vertex_indices\n"
+                              "end_header\n" +
+                              body);
+    const TriangleMesh m = ReadMesh(tmp / file);
+    ASSERT_EQ(m.vertices.size(), box.vertices.size()) << file;
+    ASSERT_EQ(m.faces.size(), box.faces.size()) << file;
+    for (size_t i = 0; i < box.vertices.size(); ++i) EXPECT_EQ(m.vertices[i], box.vertices[i]) << file;
+    for (size_t i = 0; i < box.faces.size(); ++i) EXPECT_EQ(m.faces[i], box.faces[i]) << file;
+    // Cut short inside the last face: one clear error.
+    WriteText(tmp / "short.ply", std::string("ply\nformat ") + (big ? "binary_big_endian" : "binary_little_endian") +
+                                     " 1.0\nelement vertex 1\nproperty float x\nelement face 1\n"
+                                     "property list uchar int vertex_indices\nend_header\n" +
+                                     std::string(4, '\0') + std::string(1, '\3') + std::string(6, '\0'));
+    ExpectInputError([&] { ReadMesh(tmp / "short.ply"); }, "short.ply", "truncated");
+  }
 }
 
 // A vertex line tinyobjloader would read as zeros is an error naming its

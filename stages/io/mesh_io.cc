@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <vector>
 
@@ -113,8 +114,23 @@ namespace {
 
 enum class PlyFormat { kAscii, kBinaryLE, kBinaryBE };
 
+enum class PlyType { kInt8, kUint8, kInt16, kUint16, kInt32, kUint32, kFloat32, kFloat64, kUnknown };
+
+PlyType ParsePlyType(const std::string& t) {
+  if (t == "char" || t == "int8") return PlyType::kInt8;
+  if (t == "uchar" || t == "uint8") return PlyType::kUint8;
+  if (t == "short" || t == "int16") return PlyType::kInt16;
+  if (t == "ushort" || t == "uint16") return PlyType::kUint16;
+  if (t == "int" || t == "int32") return PlyType::kInt32;
+  if (t == "uint" || t == "uint32") return PlyType::kUint32;
+  if (t == "float" || t == "float32") return PlyType::kFloat32;
+  if (t == "double" || t == "float64") return PlyType::kFloat64;
+  return PlyType::kUnknown;
+}
+
 struct PlyProperty {
   std::string name, type, count_type;  // count_type non-empty for lists
+  PlyType value = PlyType::kUnknown, count = PlyType::kUnknown;
 };
 struct PlyElement {
   std::string name;
@@ -122,30 +138,54 @@ struct PlyElement {
   std::vector<PlyProperty> props;
 };
 
-int TypeSize(const std::string& t, const std::string& name) {
-  if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
-  if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
-  if (t == "int" || t == "uint" || t == "float" || t == "int32" || t == "uint32" || t == "float32") return 4;
-  if (t == "double" || t == "float64") return 8;
-  throw InputError(name, "unknown PLY property type '" + t + "'");
-}
+// The binary body, read from memory: a scan's million faces are too many
+// for a stream read and a string compare per value (stop 59).
+class PlyBinaryReader {
+ public:
+  PlyBinaryReader(std::string body, bool big_endian, const std::string& name)
+      : body_(std::move(body)), big_endian_(big_endian), name_(name) {}
 
-double ReadBinary(std::istream& in, const std::string& t, bool big_endian, const std::string& name) {
-  const int size = TypeSize(t, name);
-  unsigned char b[8];
-  if (!in.read(reinterpret_cast<char*>(b), size)) throw InputError(name, "PLY body is truncated");
-  if (big_endian) std::reverse(b, b + size);
-  if (t == "char" || t == "int8") return static_cast<int8_t>(b[0]);
-  if (t == "uchar" || t == "uint8") return b[0];
-  if (t == "short" || t == "int16") { int16_t v; std::memcpy(&v, b, 2); return v; }
-  if (t == "ushort" || t == "uint16") { uint16_t v; std::memcpy(&v, b, 2); return v; }
-  if (t == "int" || t == "int32") { int32_t v; std::memcpy(&v, b, 4); return v; }
-  if (t == "uint" || t == "uint32") { uint32_t v; std::memcpy(&v, b, 4); return v; }
-  if (t == "float" || t == "float32") { float v; std::memcpy(&v, b, 4); return v; }
-  double v;
-  std::memcpy(&v, b, 8);
-  return v;
-}
+  // A value of type `type` (spelled `spelling` in the header, for errors).
+  double Next(PlyType type, const std::string& spelling) {
+    static constexpr int kSize[] = {1, 1, 2, 2, 4, 4, 4, 8};
+    if (type == PlyType::kUnknown) throw InputError(name_, "unknown PLY property type '" + spelling + "'");
+    const size_t size = kSize[static_cast<int>(type)];
+    if (body_.size() - at_ < size) throw InputError(name_, "PLY body is truncated");
+    // The value's bits in the machine's order, assembled byte by byte.
+    const auto* src = reinterpret_cast<const unsigned char*>(body_.data() + at_);
+    at_ += size;
+    uint64_t bits = 0;
+    if (big_endian_)
+      for (size_t i = 0; i < size; ++i) bits = (bits << 8) | src[i];
+    else
+      for (size_t i = size; i-- > 0;) bits = (bits << 8) | src[i];
+    switch (type) {
+      case PlyType::kInt8: return static_cast<int8_t>(static_cast<uint8_t>(bits));
+      case PlyType::kUint8: return static_cast<uint8_t>(bits);
+      case PlyType::kInt16: return static_cast<int16_t>(static_cast<uint16_t>(bits));
+      case PlyType::kUint16: return static_cast<uint16_t>(bits);
+      case PlyType::kInt32: return static_cast<int32_t>(static_cast<uint32_t>(bits));
+      case PlyType::kUint32: return static_cast<uint32_t>(bits);
+      case PlyType::kFloat32: {
+        const uint32_t u = static_cast<uint32_t>(bits);
+        float v;
+        std::memcpy(&v, &u, 4);
+        return v;
+      }
+      default: {
+        double v;
+        std::memcpy(&v, &bits, 8);
+        return v;
+      }
+    }
+  }
+
+ private:
+  std::string body_;
+  size_t at_ = 0;
+  bool big_endian_;
+  const std::string& name_;
+};
 
 }  // namespace
 
@@ -179,6 +219,8 @@ TriangleMesh ReadPly(std::istream& in, const std::string& name) {
       ls >> t;
       if (t == "list") ls >> p.count_type >> p.type >> p.name;
       else { p.type = t; ls >> p.name; }
+      p.value = ParsePlyType(p.type);
+      p.count = ParsePlyType(p.count_type);
       elements.back().props.push_back(p);
     } else if (word == "end_header") {
       header_done = true;
@@ -186,22 +228,30 @@ TriangleMesh ReadPly(std::istream& in, const std::string& name) {
     }
   }
   if (!header_done) throw InputError(name, "PLY header has no end_header");
+  std::optional<PlyBinaryReader> binary;
+  if (format != PlyFormat::kAscii) {
+    std::ostringstream body;
+    if (in.peek() != std::char_traits<char>::eof()) body << in.rdbuf();
+    binary.emplace(body.str(), format == PlyFormat::kBinaryBE, name);
+  }
   TriangleMesh mesh;
+  std::vector<long> list;
+  std::istringstream row;
   for (const auto& e : elements) {
     // A binary row of no properties reads no bytes, so a huge count would spin
     // without ever reaching the end of the file.
     if (e.props.empty() && e.count > 0)
       throw InputError(name, "PLY element '" + e.name + "' has " + std::to_string(e.count) + " rows but no properties");
+    const bool is_vertex = e.name == "vertex", is_face = e.name == "face";
     for (long i = 0; i < e.count; ++i) {
-      std::vector<double> scalars;
-      std::vector<long> list;
-      std::istringstream row;
-      if (format == PlyFormat::kAscii) {
+      list.clear();
+      if (!binary) {
         if (!std::getline(in, line)) throw InputError(name, "PLY body is truncated");
+        row.clear();
         row.str(line);
       }
-      auto next = [&](const std::string& t) {
-        if (format != PlyFormat::kAscii) return ReadBinary(in, t, format == PlyFormat::kBinaryBE, name);
+      auto next = [&](PlyType type, const std::string& spelling) {
+        if (binary) return binary->Next(type, spelling);
         double v;
         if (!(row >> v)) throw InputError(name, "PLY row is short or not numeric: " + line);
         return v;
@@ -209,29 +259,28 @@ TriangleMesh ReadPly(std::istream& in, const std::string& name) {
       Eigen::Vector3d xyz = Eigen::Vector3d::Zero();
       for (const auto& p : e.props) {
         if (!p.count_type.empty()) {
-          const double n = next(p.count_type);
+          const double n = next(p.count, p.count_type);
           // Written so that NaN fails too: a float count type can carry one.
           if (!(n >= 0 && n <= 1024) || n != std::floor(n))
             throw InputError(name, "PLY list length " + std::to_string(n) + " is not a count from 0 to 1024");
           const bool indices = p.name == "vertex_indices" || p.name == "vertex_index";
-          std::vector<long> vals;
+          if (indices) list.clear();
           for (int k = 0; k < static_cast<int>(n); ++k) {
-            const double v = next(p.type);
+            const double v = next(p.value, p.type);
             if (!indices) continue;  // other lists (texture coordinates, ...) are not used
             if (!(v >= 0 && v < 2147483647.0) || v != std::floor(v))
               throw InputError(name, "PLY face has vertex index " + std::to_string(v) + ", not a vertex number");
-            vals.push_back(static_cast<long>(v));
+            list.push_back(static_cast<long>(v));
           }
-          if (indices) list = vals;
         } else {
-          const double v = next(p.type);
+          const double v = next(p.value, p.type);
           if (p.name == "x") xyz.x() = v;
           if (p.name == "y") xyz.y() = v;
           if (p.name == "z") xyz.z() = v;
         }
       }
-      if (e.name == "vertex") mesh.vertices.push_back(xyz);
-      if (e.name == "face")
+      if (is_vertex) mesh.vertices.push_back(xyz);
+      if (is_face)
         for (size_t k = 2; k < list.size(); ++k)  // fan triangulation
           mesh.faces.emplace_back(static_cast<int>(list[0]), static_cast<int>(list[k - 1]), static_cast<int>(list[k]));
     }
