@@ -2,6 +2,9 @@
 // adaptive medial-axis approximation of Bradshaw & O'Sullivan (ACM TOG 23(1),
 // 2004; field-notes 3.2) and its "Expand" reduction:
 //  1. the surface is tiled by a fine grid of micro-triangles (surface_samples.h);
+//     a mesh finer than the grid asks for (a scan, whose grid is its vertices)
+//     gives steps 2-3 an even subset of about surface_points of its points,
+//     and every point then goes where its nearest subset point may;
 //  2. inscribed (medial) spheres are grown from seed points by the shrinking-ball
 //     method (medial_spheres.h): they touch the surface and do not cross it;
 //  3. the leaves: all medial spheres are grown by a common stand-off delta, and
