@@ -65,16 +65,21 @@ std::vector<Element> Cluster(const std::vector<Element>& all, int count, size_t 
     }
   }
   const int m = static_cast<int>(centre.size());
-  std::vector<int> owner(el.size(), 0);
-  for (int iteration = 0; iteration < 12; ++iteration) {
+  // owner[i]: the patch whose centre is nearest to elements[i].
+  auto assign = [&](const std::vector<Element>& elements, std::vector<int>* owner) {
+    owner->assign(elements.size(), 0);
 #pragma omp parallel for schedule(static)
-    for (long i = 0; i < static_cast<long>(el.size()); ++i) {
+    for (long i = 0; i < static_cast<long>(elements.size()); ++i) {
       double best = std::numeric_limits<double>::infinity();
       for (int k = 0; k < m; ++k) {
-        const double d = distance2(el[i], centre[k], normal[k]);
-        if (d < best) best = d, owner[i] = k;
+        const double d = distance2(elements[i], centre[k], normal[k]);
+        if (d < best) best = d, (*owner)[i] = k;
       }
     }
+  };
+  std::vector<int> owner;
+  for (int iteration = 0; iteration < 12; ++iteration) {
+    assign(el, &owner);
     std::vector<Eigen::Vector3d> sum_c(m, Eigen::Vector3d::Zero()), sum_n(m, Eigen::Vector3d::Zero());
     std::vector<double> sum_a(m, 0.0);
     for (size_t i = 0; i < el.size(); ++i) {
@@ -85,17 +90,7 @@ std::vector<Element> Cluster(const std::vector<Element>& all, int count, size_t 
     for (int k = 0; k < m; ++k)
       if (sum_a[k] > 0 && sum_n[k].norm() > 0) centre[k] = sum_c[k] / sum_a[k], normal[k] = sum_n[k].normalized();
   }
-  if (stride > 1) {
-    owner.assign(all.size(), 0);
-#pragma omp parallel for schedule(static)
-    for (long i = 0; i < static_cast<long>(all.size()); ++i) {
-      double best = std::numeric_limits<double>::infinity();
-      for (int k = 0; k < m; ++k) {
-        const double d = distance2(all[i], centre[k], normal[k]);
-        if (d < best) best = d, owner[i] = k;
-      }
-    }
-  }
+  if (stride > 1) assign(all, &owner);
   // A patch's effective area is its vector area |sum a n|: the flux through a
   // curved patch towards a direction it faces.
   std::vector<Element> out(m, Element{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), 0.0});
