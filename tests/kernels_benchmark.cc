@@ -220,6 +220,31 @@ void BM_GatherBounce(benchmark::State& state) {
 }
 BENCHMARK(BM_GatherBounce)->Arg(0)->Arg(3)->Unit(benchmark::kMillisecond);
 
+// The per-mesh set-up on a coarse mesh and on a scan-sized one: a torus of
+// range(0) x range(0)/2 quads (64: 4096 faces; 1024: 1048576 faces, about a
+// scan's). The tree is built once per mesh and cached; its aim is <= 5 s.
+void BM_SphereTreeBuild(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const TriangleMesh torus = MakeTorus(0.2, 0.06, n, n / 2);
+  for (auto _ : state) benchmark::DoNotOptimize(BuildSphereTree(torus, SphereTreeBuildOptions{}));
+  state.counters["faces"] = static_cast<double>(torus.faces.size());
+}
+BENCHMARK(BM_SphereTreeBuild)->Arg(64)->Arg(1024)->Unit(benchmark::kSecond)->Iterations(1);
+
+// The bounce's patches (every `sg` solve with the bounce, before its clock).
+void BM_CasterBounceBuild(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const TriangleMesh torus = MakeTorus(0.2, 0.06, n, n / 2);
+  RayCaster casters;
+  casters.AddMesh(torus);
+  casters.Commit();
+  for (auto _ : state)
+    benchmark::DoNotOptimize(CasterBounce({torus}, {Eigen::Vector3d::Constant(0.7)}, casters,
+                                          Eigen::Vector3d(0, 0, -0.3), Eigen::Vector3d::UnitZ()));
+  state.counters["faces"] = static_cast<double>(torus.faces.size());
+}
+BENCHMARK(BM_CasterBounceBuild)->Arg(64)->Arg(1024)->Unit(benchmark::kMillisecond);
+
 }  // namespace
 }  // namespace shadowsg
 
