@@ -53,7 +53,9 @@
 //    bounce model's pool also holds the direct model's finished fits
 //    (pool_across_models), and where that model left the race in every
 //    restart it entered, the direct fits are pooled with the bounce all the
-//    same, judged against them (pool_direct_into_bounce).
+//    same, judged against them (pool_direct_into_bounce). The pool of
+//    several fits, refined by LM over all their fit pixels, can be one more
+//    (pool_refine_iterations).
 // 8. Where more than one fit finished (restarts, their pool, both racers),
 //    the winner is chosen on a judging set: the held-out pixels and more that
 //    no restart fitted (judge_pixels in all); the held-out set's 2000 pixels
@@ -149,6 +151,12 @@ struct SgSolverOptions {
   // (PoolLobes, solver/sg_pool.h), judged as one more fit. Where it finished one (and no
   // --lobes N), that fit's pool takes its place if its held-out error is lower.
   bool pool_restarts = true;
+  // Where several fits were pooled: the pool's set, refined by this many LM
+  // iterations over every restart's fit pixels together, is one more
+  // finished fit, judged with them (0: none). The pool re-solves amplitudes
+  // only; a seed whose fits all held the sun in broad lobes keeps it broad
+  // there. `best` (Budget).
+  int pool_refine_iterations = 0;
   // The pool offers each lobe again at these multiples of its sharpness (on
   // its axis: no new visibility search), for NNLS to blend: a fit's sharp sky
   // lobes streak the shade beside the object (pub_torus_sunrise), where a
@@ -262,12 +270,14 @@ struct SgSolverSummary {
   int path_lm_refused = 0;          // of which refused (path_warm_radius)
   int scan_moves = 0;               // grid-search moves of the brightest sharp lobe that were kept
   int invalid_lobes_removed = 0;    // non-finite lobes dropped by the last guard (0 unless a bug or a degenerate fit)
-  // Final held-out MSE of each restart, then of their pool where there is one (pool_restarts).
+  // Final held-out MSE of each restart, then of their pool where there is
+  // one (pool_restarts), then of the pool refined (pool_refine_iterations).
   std::vector<double> restart_heldout_mse;
   std::vector<double> restart_judged_mse;   // and on the judging set (empty when one fit finished)
   int judge_pixels = 0;                     // pixels of the judging set (0: none was needed)
   int restart_chosen = 0;                   // index into restart_heldout_mse
   bool pooled = false;                      // the kept fit is a pool (of the restarts, or of one fit's lobes)
+  bool pool_refined = false;                // and is the pool refined (pool_refine_iterations)
   bool bounce = false;                      // the chosen model has the casters' bounce
   std::vector<double> bounce_heldout_mse;   // choose_bounce: best held-out MSE without, then with, the bounce (a model that
                                             // dropped out of the race: the best of its size path, or of a fit

@@ -132,6 +132,7 @@ LightingEstimate SolveWithSg(Scene& scene, const fs::path& scene_dir, const Plan
                    {"judge_pixels", summary.judge_pixels},
                    {"restart_chosen", summary.restart_chosen},
                    {"pooled", summary.pooled},
+                   {"pool_refined", summary.pool_refined},
                    {"theta_seconds", summary.theta_seconds},
                    {"select_seconds", summary.select_seconds},
                    {"refine_seconds", summary.refine_seconds},

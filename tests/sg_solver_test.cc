@@ -334,6 +334,42 @@ TEST(SgSolver, RestartsArePooledAndJudgedAsOneMoreFit) {
   for (size_t r = 0; r < 3; ++r) EXPECT_DOUBLE_EQ(a.restart_heldout_mse[r], s.restart_heldout_mse[r]);
 }
 
+// The pool refined by LM over all the restarts' fit pixels is one more fit,
+// judged with the restarts and the pool; it leaves them as they were.
+TEST(SgSolver, ThePoolRefinedIsOneMoreJudgedFit) {
+  const ShadowPlaneModel model = SgTestModel(64);
+  const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, Cases()[1].truth);
+  SgSolverOptions o = SgSolverOptions::Budget("balanced");
+  ASSERT_EQ(o.pool_refine_iterations, 0);
+  o.fit_pixels = 600;
+  o.holdout_pixels = 100;
+  o.judge_pixels = 4096;
+  SgSolverOptions refine = o;
+  refine.pool_refine_iterations = 10;
+  double gain = 0;
+  for (uint64_t seed : {1, 2, 3}) {
+    o.seed = refine.seed = seed;
+    SgSolverSummary s, r;
+    SolveSg(model, targets, o, &s);
+    const SgLighting est = SolveSg(model, targets, refine, &r);
+    ASSERT_EQ(s.restart_judged_mse.size(), 4u) << seed;
+    ASSERT_EQ(r.restart_judged_mse.size(), 5u) << seed;
+    for (size_t k = 0; k < 4; ++k) EXPECT_DOUBLE_EQ(r.restart_judged_mse[k], s.restart_judged_mse[k]) << seed;
+    EXPECT_EQ(r.pool_refined, r.restart_chosen == 4) << seed;
+    EXPECT_EQ(r.pooled, r.restart_chosen >= 3) << seed;
+    EXPECT_EQ(static_cast<int>(est.lobes.size()), r.lobes_kept) << seed;
+    std::printf("seed %d: pool judged %.4g, refined %.4g, chosen %d\n", static_cast<int>(seed), r.restart_judged_mse[3],
+                r.restart_judged_mse[4], r.restart_chosen);
+    gain += std::log(r.restart_judged_mse[3] / r.restart_judged_mse[4]);
+  }
+  // LM moves the pool's axes and sharpness where NNLS could not.
+  EXPECT_GT(gain, 0.0);
+  refine.pool_refine_iterations = -1;
+  std::string error;
+  EXPECT_FALSE(refine.IsValid(&error));
+  EXPECT_NE(error.find("pool_refine_iterations"), std::string::npos);
+}
+
 // The pool of several fits chooses its leading set on the judging set, not on
 // the held-out set: with 100 held-out pixels the latter's choice is noisy.
 TEST(SgSolver, PoolChoosesItsLeadingSetOnTheJudgingSet) {
