@@ -340,7 +340,8 @@ TEST(SgSolver, ThePoolRefinedIsOneMoreJudgedFit) {
   const ShadowPlaneModel model = SgTestModel(64);
   const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, Cases()[1].truth);
   SgSolverOptions o = SgSolverOptions::Budget("balanced");
-  ASSERT_EQ(o.pool_refine_iterations, 0);
+  ASSERT_EQ(o.pool_refine_iterations, 0);  // `best` alone refines its pool
+  EXPECT_GT(SgSolverOptions::Budget("best").pool_refine_iterations, 0);
   o.fit_pixels = 600;
   o.holdout_pixels = 100;
   o.judge_pixels = 4096;
