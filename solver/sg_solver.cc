@@ -1046,8 +1046,7 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   // A model's one fit pooled with its sharpness copies (pool_sharpness)
   // takes its place where its held-out error is lower: no judging set is
   // built for it (0.2 s on pub_torus_sunrise, fast).
-  std::vector<char> pooled(nv, 0);
-  // Where each model's pool and its refinement are in fits[v] (none: npos).
+  // Where each model's pool and its refinement are in fits[v] (none: kNone).
   constexpr size_t kNone = std::numeric_limits<size_t>::max();
   std::vector<size_t> pool_at(nv, kNone), refined_at(nv, kNone);
   // The direct model's finished fits before its own pool joins them.
@@ -1103,7 +1102,6 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
         }
         pool_at[v] = fits[v].size();
         fits[v].push_back(std::move(pool));
-        pooled[v] = 1;
         if (!refined.lighting.lobes.empty()) {
           refined_at[v] = fits[v].size();
           fits[v].push_back(std::move(refined));
@@ -1116,7 +1114,6 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
         sum.lobes_kept = pool.sum.lobes_kept;
         pool.sum = sum;
         fits[v][0] = std::move(pool);
-        pooled[v] = 1;
         pool_at[v] = 0;
       }
     }
@@ -1176,7 +1173,7 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   if (!judge.pixels.empty()) sum.restart_judged_mse = score[v_best];
   sum.judge_pixels = static_cast<int>(judge.pixels.size());
   sum.restart_chosen = static_cast<int>(chosen[v_best]);
-  sum.pooled = pooled[v_best] && (chosen[v_best] == pool_at[v_best] || chosen[v_best] == refined_at[v_best]);
+  sum.pooled = chosen[v_best] == pool_at[v_best] || chosen[v_best] == refined_at[v_best];
   sum.pool_refined = chosen[v_best] == refined_at[v_best];
   sum.bounce = has_bounce(v_best);
   if (nv > 1) sum.bounce_heldout_mse = best_seen, sum.bounce_race_entries = entries;
