@@ -119,11 +119,8 @@ constexpr double kMinSharpness = 0.05;
 constexpr double kMaxSharpness = 5000;
 
 // A lobe giving the unoccluded plane less than this fraction of the light is
-// dropped; held-out errors closer to the best than kSizeNoiseFloor times the
-// mean squared signal count as equal (noise-free scenes would otherwise keep
-// lobes that gain 100 dB on 110).
+// dropped.
 constexpr double kNegligibleLight = 1e-4;
-constexpr double kSizeNoiseFloor = 1e-6;
 
 // Beyond z = 17 the sigmoid is within 4.1e-8 of 1: under an ulp of the float
 // dictionary's entries, which it scales.
