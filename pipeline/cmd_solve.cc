@@ -19,7 +19,8 @@ void RegisterSolveCommand(CLI::App& app) {
   cmd->add_option("--lobes", opt->solve.lobes, "sg: force N lobes (0: chosen by the solver); sg-paper: initial lobes");
   cmd->add_option("--budget", opt->solve.budget, "sg: fast, balanced or best")->capture_default_str();
   cmd->add_option("--restarts", opt->solve.restarts,
-                  "sg: fits from fresh pixels, the best held-out one kept (default: fast 1, balanced and best 3)")
+                  "sg: fits from fresh pixels, pooled into one more fit; the best judged one kept "
+                  "(default: fast 1, balanced 3, best 6)")
       ->check(CLI::Range(0, 100));
   cmd->add_option("--steps", opt->solve.steps, "sg-paper: Adam steps (default 20000, as published)");
   cmd->add_option("--map-height", opt->solve.map_height, "ss03/ss03+/sh21: map rows over the hemisphere")
