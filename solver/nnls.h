@@ -12,6 +12,7 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <vector>
 
 namespace shadowsg {
 
@@ -33,6 +34,13 @@ struct NnlsSummary {
 
 // H symmetric positive semi-definite (n x n), f of size n.
 Eigen::VectorXd SolveNnls(const Eigen::MatrixXd& gram, const Eigen::VectorXd& atb,
+                          const NnlsOptions& options = {}, NnlsSummary* summary = nullptr);
+
+// The same from a guess of the passive set (indices, e.g. a nearby
+// problem's): the guess's least-squares solution, its non-positive members
+// dropped (the last first) until it is positive, starts the iteration. Same
+// optimum; far fewer steps when the guess is close.
+Eigen::VectorXd SolveNnls(const Eigen::MatrixXd& gram, const Eigen::VectorXd& atb, const std::vector<int>& start,
                           const NnlsOptions& options = {}, NnlsSummary* summary = nullptr);
 
 }  // namespace shadowsg

@@ -457,6 +457,43 @@ TEST(Nnls, MatchesExhaustiveSearchAndKkt) {
   }
 }
 
+// From any guess of the passive set (empty, all, the answer, a random
+// half, indices repeated): the optimum of the cold start.
+TEST(Nnls, WarmStartReachesTheColdOptimum) {
+  std::mt19937 rng(9);
+  std::normal_distribution<double> normal;
+  std::uniform_int_distribution<int> coin(0, 1);
+  for (int trial = 0; trial < 20; ++trial) {
+    const int m = 40, n = 15;
+    Eigen::MatrixXd a(m, n);
+    Eigen::VectorXd b(m);
+    for (int i = 0; i < m; ++i) {
+      b[i] = normal(rng);
+      for (int j = 0; j < n; ++j) a(i, j) = normal(rng);
+    }
+    const Eigen::MatrixXd h = a.transpose() * a;
+    const Eigen::VectorXd f = a.transpose() * b;
+    const Eigen::VectorXd cold = SolveNnls(h, f);
+    std::vector<int> all(n), answer, half;
+    for (int j = 0; j < n; ++j) {
+      all[j] = n - 1 - j;
+      if (cold[j] > 0) answer.push_back(j);
+      if (coin(rng)) half.push_back(j);
+    }
+    std::vector<int> twice = half;
+    twice.insert(twice.end(), half.begin(), half.end());
+    for (const std::vector<int>& start : {std::vector<int>{}, all, answer, half, twice}) {
+      NnlsSummary summary;
+      const Eigen::VectorXd warm = SolveNnls(h, f, start, {}, &summary);
+      EXPECT_TRUE(summary.converged);
+      EXPECT_LT((warm - cold).cwiseAbs().maxCoeff(), 1e-9 * (1 + cold.cwiseAbs().maxCoeff())) << trial;
+      if (start == answer) {
+        EXPECT_EQ(summary.iterations, 0) << trial;
+      }
+    }
+  }
+}
+
 TEST(Nnls, LargeSemidefiniteProblem) {
   // More columns than rows (rank deficient Gram), as for a map whose texels
   // cannot all be told apart: still converges and satisfies KKT.

@@ -11,6 +11,7 @@
 #include "solver/eigen_blocking.h"
 #include "solver/primitives.h"
 #include "solver/shadow_plane.h"
+#include "solver/sg_lobe_system.h"
 #include "solver/sg_refine_lm.h"
 #include "solver/sphere_tree_build.h"
 #include "solver/ssdf.h"
@@ -158,6 +159,38 @@ BENCHMARK(BM_RefineByLm)
     ->Args({6000, 8, 1})
     ->Args({6000, 16, 1})
     ->Unit(benchmark::kMillisecond);
+
+// The pool's backward elimination: a torus lit by 40 lobes of random
+// colours, the candidates those lobes a little off their axes at three
+// sharpnesses and as many elsewhere (240 in all, as three restarts' pool);
+// the system built once, the order alone timed.
+void BM_EliminationOrder(benchmark::State& state) {
+  ShadowPlaneModel model;
+  model.points = PlanePoints(4096);
+  model.albedo.assign(model.points.size(), Eigen::Vector3f::Constant(0.8f));
+  model.occluders = {TorusTree()};
+  model.PrepareCones();
+  model.cosine = CosineModel::kExact;
+  model.cap_occlusion = true;
+  model.max_steepness = kSgMaxVisibilitySteepness;
+  model.occluder_cos = OccluderConeCosines(model.occluders, model.points);
+  const int n = static_cast<int>(state.range(0)) / 6;
+  const std::vector<Eigen::Vector3d> axes = Axes(2 * n);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(0.2, 1.0);
+  SgLighting truth;
+  for (int i = 0; i < n; ++i) truth.lobes.push_back({axes[i], 30.0, Eigen::Vector3d(u(rng), u(rng), u(rng))});
+  const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, truth);
+  const Eigen::AngleAxisd turn(0.05, Eigen::Vector3d(1, 2, 0.5).normalized());
+  std::vector<SgLobe> candidates;
+  for (int i = 0; i < 2 * n; ++i)
+    for (double sharpness : {15.0, 30.0, 120.0})
+      candidates.push_back({i < n ? Eigen::Vector3d(turn * axes[i]) : axes[i], sharpness, Eigen::Vector3d::Ones()});
+  const LobeNormalEquations eq =
+      BuildLobeNormalEquations(model, std::vector<double>(model.points.size(), 1.0), targets, candidates);
+  for (auto _ : state) benchmark::DoNotOptimize(EliminationOrder(eq));
+}
+BENCHMARK(BM_EliminationOrder)->Arg(120)->Arg(240)->Unit(benchmark::kMillisecond);
 
 // The exact quadrature and the bounce's table, over a sweep of sharpness.
 template <class Integral>
