@@ -110,28 +110,28 @@ Eigen::VectorXd SolveNnls(const Eigen::MatrixXd& gram, const Eigen::VectorXd& at
   const int max_iterations = options.max_iterations > 0 ? options.max_iterations : 3 * n;
 
   PassiveFactor factor(h);
-  if (!start.empty()) {
-    for (int j : start) {
-      SHADOWSG_CHECK(j >= 0 && j < n);
-      if (state[j] != kAtZero) continue;
-      if (factor.Append(j)) {
-        state[j] = kPassive;
-      } else {
-        state[j] = kExcluded;
-        ++s.dependent;
-      }
+  // The guess's passive set (none for a cold start), cut down until its
+  // least-squares solution is positive: a feasible start.
+  for (int j : start) {
+    SHADOWSG_CHECK(j >= 0 && j < n);
+    if (state[j] != kAtZero) continue;
+    if (factor.Append(j)) {
+      state[j] = kPassive;
+    } else {
+      state[j] = kExcluded;
+      ++s.dependent;
     }
-    while (factor.size() > 0) {
-      const Eigen::VectorXd z = factor.Solve(f);
-      int k = factor.size() - 1;
-      while (k >= 0 && z[k] > 0) --k;
-      if (k < 0) {
-        for (int i = 0; i < factor.size(); ++i) x[factor.set()[i]] = z[i];
-        break;
-      }
-      state[factor.set()[k]] = kAtZero;
-      factor.Remove(k);
+  }
+  while (factor.size() > 0) {
+    const Eigen::VectorXd z = factor.Solve(f);
+    int k = factor.size() - 1;
+    while (k >= 0 && z[k] > 0) --k;
+    if (k < 0) {
+      for (int i = 0; i < factor.size(); ++i) x[factor.set()[i]] = z[i];
+      break;
     }
+    state[factor.set()[k]] = kAtZero;
+    factor.Remove(k);
   }
   Eigen::VectorXd w(n);
   while (true) {

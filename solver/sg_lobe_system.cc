@@ -61,16 +61,7 @@ struct SubsetSystem {
 };
 
 SubsetSystem Restrict(const LobeNormalEquations& eq, int c, const std::vector<long>& set) {
-  const long m = static_cast<long>(set.size());
-  SubsetSystem s;
-  s.h.resize(m, m);
-  s.f.resize(m);
-  s.btb = eq.btb[c];
-  for (long i = 0; i < m; ++i) {
-    s.f[i] = eq.atb[c][set[i]];
-    for (long j = 0; j < m; ++j) s.h(i, j) = eq.gram[c](set[i], set[j]);
-  }
-  return s;
+  return {eq.gram[c](set, set), eq.atb[c](set), eq.btb[c]};
 }
 
 // The squared error of one channel's NNLS solution on the subset without
@@ -89,10 +80,7 @@ class DropOneErrors {
     for (long i = 0; i < x_.size(); ++i)
       if (x_[i] > 0) slot_.push_back(i);
     const long p = static_cast<long>(slot_.size());
-    Eigen::MatrixXd hp(p, p);
-    for (long i = 0; i < p; ++i)
-      for (long j = 0; j < p; ++j) hp(i, j) = s.h(slot_[i], slot_[j]);
-    const Eigen::LLT<Eigen::MatrixXd> llt(hp);
+    const Eigen::LLT<Eigen::MatrixXd> llt(s.h(slot_, slot_));
     if (llt.info() == Eigen::Success) inverse_ = llt.solve(Eigen::MatrixXd::Identity(p, p));
     inverse_ok_ = llt.info() == Eigen::Success && inverse_.allFinite();
   }
@@ -170,10 +158,10 @@ std::vector<long> EliminationOrder(const LobeNormalEquations& eq) {
     const long m = static_cast<long>(set.size());
     std::array<SubsetSystem, 3> sys;
     for (int c = 0; c < 3; ++c) sys[c] = Restrict(eq, c, set);
-    const DropOneErrors drop[3] = {DropOneErrors(sys[0]), DropOneErrors(sys[1]), DropOneErrors(sys[2])};
+    const DropOneErrors channel[3] = {DropOneErrors(sys[0]), DropOneErrors(sys[1]), DropOneErrors(sys[2])};
     std::vector<char> active(static_cast<size_t>(m), 0);
     for (int c = 0; c < 3; ++c)
-      for (long i = 0; i < m; ++i) active[static_cast<size_t>(i)] |= drop[c].x()[i] > 0;
+      for (long i = 0; i < m; ++i) active[static_cast<size_t>(i)] |= channel[c].x()[i] > 0;
     if (std::find(active.begin(), active.end(), 0) != active.end()) {
       std::vector<long> kept;
       for (size_t t = 0; t < set.size(); ++t) (active[t] ? kept : dropped).push_back(set[t]);
@@ -182,10 +170,11 @@ std::vector<long> EliminationOrder(const LobeNormalEquations& eq) {
     }
     std::vector<double> error(static_cast<size_t>(m));
 #pragma omp parallel for schedule(dynamic, 1) if (m > 8 && !omp_in_parallel())
-    for (long t = 0; t < m; ++t) error[static_cast<size_t>(t)] = drop[0].Without(t) + drop[1].Without(t) + drop[2].Without(t);
-    const long worst = std::min_element(error.begin(), error.end()) - error.begin();
-    dropped.push_back(set[worst]);
-    set.erase(set.begin() + worst);
+    for (long t = 0; t < m; ++t)
+      error[static_cast<size_t>(t)] = channel[0].Without(t) + channel[1].Without(t) + channel[2].Without(t);
+    const long drop = std::min_element(error.begin(), error.end()) - error.begin();
+    dropped.push_back(set[drop]);
+    set.erase(set.begin() + drop);
   }
   return std::vector<long>(dropped.rbegin(), dropped.rend());
 }

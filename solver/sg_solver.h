@@ -103,8 +103,8 @@ struct SgSolverOptions {
   // sunrise seed up by 0.02-0.44 dB (medians +0.09 and +0.13), the interior's
   // spread 0.40 -> 0.30, a few lobes more, the same time; sunsky's sun and
   // sky kept 2-3 lobes. None (0) added 0.02 dB for twice the lobes (solver/EXPERIMENTS.md).
-  // Errors closer to the best than kSizeNoiseFloor times the held-out
-  // pixels' mean squared value count as equal too (see below).
+  // Errors closer to the best than kSizeNoiseFloor (above) times the
+  // held-out pixels' mean squared value count as equal too.
   double size_tolerance = 0.005;
   int max_atoms = 160;             // active-set size cap of the dictionary fit
   double kkt_tolerance = 1e-4;     // stop the dictionary fit when no atom's gradient beats this (relative)

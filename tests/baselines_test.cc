@@ -420,17 +420,25 @@ TEST(Baselines, RejectsBadOptionsAndInput) {
   EXPECT_THROW(SolveBaseline(f.scene, f.pixels, f.casters, {}), InputError);
 }
 
+// A least-squares problem of m rows and n columns, entries drawn from
+// `normal` (b's entry, then a's row, row by row).
+void RandomLeastSquares(std::mt19937& rng, int m, int n, Eigen::MatrixXd* a, Eigen::VectorXd* b) {
+  std::normal_distribution<double> normal;
+  a->resize(m, n);
+  b->resize(m);
+  for (int i = 0; i < m; ++i) {
+    (*b)[i] = normal(rng);
+    for (int j = 0; j < n; ++j) (*a)(i, j) = normal(rng);
+  }
+}
+
 TEST(Nnls, MatchesExhaustiveSearchAndKkt) {
   std::mt19937 rng(11);
-  std::normal_distribution<double> normal;
   for (int trial = 0; trial < 20; ++trial) {
     const int m = 12, n = 6;
-    Eigen::MatrixXd a(m, n);
-    Eigen::VectorXd b(m);
-    for (int i = 0; i < m; ++i) {
-      b[i] = normal(rng);
-      for (int j = 0; j < n; ++j) a(i, j) = normal(rng);
-    }
+    Eigen::MatrixXd a;
+    Eigen::VectorXd b;
+    RandomLeastSquares(rng, m, n, &a, &b);
     const Eigen::MatrixXd h = a.transpose() * a;
     const Eigen::VectorXd f = a.transpose() * b;
     NnlsSummary summary;
@@ -461,16 +469,12 @@ TEST(Nnls, MatchesExhaustiveSearchAndKkt) {
 // half, indices repeated): the optimum of the cold start.
 TEST(Nnls, WarmStartReachesTheColdOptimum) {
   std::mt19937 rng(9);
-  std::normal_distribution<double> normal;
   std::uniform_int_distribution<int> coin(0, 1);
   for (int trial = 0; trial < 20; ++trial) {
-    const int m = 40, n = 15;
-    Eigen::MatrixXd a(m, n);
-    Eigen::VectorXd b(m);
-    for (int i = 0; i < m; ++i) {
-      b[i] = normal(rng);
-      for (int j = 0; j < n; ++j) a(i, j) = normal(rng);
-    }
+    const int n = 15;
+    Eigen::MatrixXd a;
+    Eigen::VectorXd b;
+    RandomLeastSquares(rng, 40, n, &a, &b);
     const Eigen::MatrixXd h = a.transpose() * a;
     const Eigen::VectorXd f = a.transpose() * b;
     const Eigen::VectorXd cold = SolveNnls(h, f);

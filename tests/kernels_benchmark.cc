@@ -116,14 +116,11 @@ BENCHMARK(BM_RenderShadowPlane)->Args({65536, 8})->Args({65536, 64})->Unit(bench
 
 const CasterBounce& TorusBounce();
 
-// One path solve of the refinement: 8 Levenberg-Marquardt steps of L lobes
-// over the fit pixels (6000 in the presets), from lobes turned 0.02 rad and
-// dimmed 10 % off those that made the targets; cone tables prepared once;
-// with the third argument 1, the torus's bounce too, its form factors
-// factored as the fit pixels' are (tolerance 0.003).
-void BM_RefineByLm(benchmark::State& state) {
+// The torus over n plane points as `sg` models it: exact cosine, cone
+// tables prepared, the occlusion cap and the sigmoid's steepness capped.
+ShadowPlaneModel TorusPlaneModel(int n) {
   ShadowPlaneModel model;
-  model.points = PlanePoints(static_cast<int>(state.range(0)));
+  model.points = PlanePoints(n);
   model.albedo.assign(model.points.size(), Eigen::Vector3f::Constant(0.8f));
   model.occluders = {TorusTree()};
   model.PrepareCones();
@@ -131,6 +128,16 @@ void BM_RefineByLm(benchmark::State& state) {
   model.cap_occlusion = true;
   model.max_steepness = kSgMaxVisibilitySteepness;
   model.occluder_cos = OccluderConeCosines(model.occluders, model.points);
+  return model;
+}
+
+// One path solve of the refinement: 8 Levenberg-Marquardt steps of L lobes
+// over the fit pixels (6000 in the presets), from lobes turned 0.02 rad and
+// dimmed 10 % off those that made the targets; cone tables prepared once;
+// with the third argument 1, the torus's bounce too, its form factors
+// factored as the fit pixels' are (tolerance 0.003).
+void BM_RefineByLm(benchmark::State& state) {
+  ShadowPlaneModel model = TorusPlaneModel(static_cast<int>(state.range(0)));
   if (state.range(2)) {
     model.normal = Eigen::Vector3d::UnitZ();
     model.bounce = std::shared_ptr<const CasterBounce>(&TorusBounce(), [](const CasterBounce*) {});
@@ -165,15 +172,7 @@ BENCHMARK(BM_RefineByLm)
 // sharpnesses and as many elsewhere (240 in all, as three restarts' pool);
 // the system built once, the order alone timed.
 void BM_EliminationOrder(benchmark::State& state) {
-  ShadowPlaneModel model;
-  model.points = PlanePoints(4096);
-  model.albedo.assign(model.points.size(), Eigen::Vector3f::Constant(0.8f));
-  model.occluders = {TorusTree()};
-  model.PrepareCones();
-  model.cosine = CosineModel::kExact;
-  model.cap_occlusion = true;
-  model.max_steepness = kSgMaxVisibilitySteepness;
-  model.occluder_cos = OccluderConeCosines(model.occluders, model.points);
+  const ShadowPlaneModel model = TorusPlaneModel(4096);
   const int n = static_cast<int>(state.range(0)) / 6;
   const std::vector<Eigen::Vector3d> axes = Axes(2 * n);
   std::mt19937 rng(3);
