@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "calib/error.h"
+#include "solver/side_by_side.h"
 
 namespace shadowsg {
 namespace {
@@ -125,6 +126,7 @@ RefineLmSummary RefineByLm(const RefineCost& cost, std::vector<SgLobe>* lobes, c
   Eigen::VectorXd taken;
   while (sum.iterations < o.max_iterations) {
     ++sum.iterations;
+    TakeLentThreads();  // a restart beside others takes the threads of those done
     // Ceres' Jacobi-scaled damping, in the unscaled unknowns.
     Eigen::MatrixXd A = ne.H;
     for (long i = 0; i < n; ++i)

@@ -20,6 +20,7 @@
 #include "solver/nnls.h"
 #include "solver/row_parallel_product.h"
 #include "solver/sg_shading.h"
+#include "solver/side_by_side.h"
 #include "solver/sort_by_key.h"
 
 namespace shadowsg {
@@ -199,6 +200,14 @@ struct Atom {
   int axis;
   double lambda;
 };
+
+// The dictionary's atoms: every axis at every sharpness, axis by axis.
+std::vector<Atom> DictionaryAtoms(size_t axes, const std::vector<double>& sharpness) {
+  std::vector<Atom> atoms;
+  for (int a = 0; a < static_cast<int>(axes); ++a)
+    for (double l : sharpness) atoms.push_back({a, l});
+  return atoms;
+}
 
 // Column of an atom: shading per unit amplitude and unit albedo/pi.
 void AtomColumn(const ShadowPlaneModel& model, const Eigen::MatrixXf& theta, const Atom& atom,
@@ -419,8 +428,7 @@ FitData PrepareFit(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
 
   // Dictionary matrix G (fit pixels x atoms), per unit amplitude and albedo/pi.
   t0 = Clock::now();
-  for (int a = 0; a < static_cast<int>(axes.size()); ++a)
-    for (double l : o.sharpness) d.atoms.push_back({a, l});
+  d.atoms = DictionaryAtoms(axes.size(), o.sharpness);
   const long na = static_cast<long>(d.atoms.size());
   d.G.resize(static_cast<long>(nf), na);
 #pragma omp parallel for schedule(dynamic, 4)
@@ -474,6 +482,18 @@ struct AtomBounce {
   bool ready = false;
 };
 
+// The atoms' bounce (AtomBounce), unless it is ready. Any model with the
+// casters' bounce gives the same: it needs no points.
+void PrepareAtomBounce(const ShadowPlaneModel& model, const std::vector<Atom>& atoms,
+                       const std::vector<Eigen::Vector3d>& axes, AtomBounce* atom_bounce) {
+  if (atom_bounce->ready) return;
+  std::vector<Eigen::Vector3d> atom_axes;
+  std::vector<double> atom_sharpness;
+  for (const Atom& a : atoms) atom_axes.push_back(axes[a.axis]), atom_sharpness.push_back(a.lambda);
+  atom_bounce->irradiance = BounceIrradiance(model, atom_axes, atom_sharpness);
+  atom_bounce->ready = true;
+}
+
 FitRun StartFit(const FitData& d, bool bounce, const ShadowPlaneModel& hold_model,
                 const std::vector<Eigen::Vector3f>& hold_targets, const std::vector<Eigen::Vector3d>& axes,
                 const SgSolverOptions& o, AtomBounce* atom_bounce, ProgressFn progress) {
@@ -497,13 +517,7 @@ FitRun StartFit(const FitData& d, bool bounce, const ShadowPlaneModel& hold_mode
     // The casters' bounce of each atom, with the patches' albedo averaged
     // over the channels (the dictionary only starts the fit; the refinement
     // and every render use each channel's).
-    if (!atom_bounce->ready) {
-      std::vector<Eigen::Vector3d> atom_axes;
-      std::vector<double> atom_sharpness;
-      for (const Atom& a : atoms) atom_axes.push_back(axes[a.axis]), atom_sharpness.push_back(a.lambda);
-      atom_bounce->irradiance = BounceIrradiance(fit_model, atom_axes, atom_sharpness);
-      atom_bounce->ready = true;
-    }
+    PrepareAtomBounce(fit_model, atoms, axes, atom_bounce);
     G += BounceLobeShading(fit_model, atom_bounce->irradiance);
   }
   const Eigen::VectorXf wmean = W.rowwise().mean();
@@ -577,6 +591,7 @@ FitRun StartFit(const FitData& d, bool bounce, const ShadowPlaneModel& hold_mode
 // jointly from the previous model plus the next lobe; the held-out error of
 // each decides how many the scene needs. One step; false once the path ended.
 bool StepFit(FitRun* run, const SgSolverOptions& o) {
+  TakeLentThreads();
   // The next merged lobe (a lobe the refinement dropped is not tried again).
   const size_t k = run->next_merged;
   const int max_lobes = o.lobes > 0 ? o.lobes : o.max_lobes;
@@ -620,6 +635,7 @@ bool StepFit(FitRun* run, const SgSolverOptions& o) {
 }
 
 FitResult FinishFit(FitRun&& run, double signal, const SgSolverOptions& o) {
+  TakeLentThreads();
   while (StepFit(&run, o)) {
   }
   SgSolverSummary& sum = run.sum;
@@ -863,6 +879,10 @@ bool BounceRaceDrops(size_t steps, size_t other_steps, double best, double other
   return paths_ended && best > kEndMargin * other_best;
 }
 
+bool LaterRestartsWaitForFirst(size_t models, const SgSolverOptions& o) {
+  return models == 2 && !(o.bounce_race_once && o.later_restarts_bounce);
+}
+
 std::vector<char> LaterRestartModels(const std::vector<char>& first_racing, const SgSolverOptions& o) {
   if (!o.bounce_race_once) return std::vector<char>(first_racing.size(), 1);
   if (o.later_restarts_bounce && first_racing.size() == 2) return {0, 1};
@@ -1005,39 +1025,35 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
     }
   };
 
-  Outcome first = run_restart(0, entered, o.carry_direct_into_bounce);
-  entered = LaterRestartModels(first.racing, o);
-  // Carrying that did not pay in the first restart is not tried again
-  // (balanced: 1.05-1.08x the time on sunsky and the cone scene for nothing).
-  const bool carry_later = first.carried;
-  keep(std::move(first));
-  // The later restarts depend on the first one only (the race it decided,
-  // the atoms' bounce it computed; StartFit computes that only while it is
-  // not ready, so every model's first start must be the first restart's).
-  // As many as there are threads run side by side, one thread each, where
-  // that makes two or more: two single-thread fits on two cores ran 2.4 s
-  // each where one fit took 1.5-1.6 s on both (fast, pub_torus_sunrise).
-  // Those that are left over run one after another on every thread (`best`'s
-  // fifth later restart ran alone on one thread: no faster than before).
-  // A fit on one thread is the same as with --threads 1.
-  const int later = o.restarts - 1, threads = omp_get_max_threads();
-  const int side_by_side = threads >= 2 && !omp_in_parallel() ? later - later % threads : 0;
-  std::vector<Outcome> outcomes(static_cast<size_t>(std::max(0, later)));
-  if (side_by_side > 0) {
-    SHADOWSG_CHECK(!model.bounce || atom_bounce.ready || !entered[nv - 1]);
-    std::vector<std::exception_ptr> failed(static_cast<size_t>(side_by_side));
-#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
-    for (int r = 1; r <= side_by_side; ++r) {
-      try {
-        outcomes[r - 1] = run_restart(r, entered, carry_later);
-      } catch (...) {
-        failed[r - 1] = std::current_exception();
-      }
-    }
-    for (const std::exception_ptr& e : failed)
-      if (e) std::rethrow_exception(e);
+  // The restarts run side by side, one thread each, a finished one's thread
+  // lent to those left (RunSideBySide): two single-thread fits on two cores
+  // ran 2.4 s each where one fit took 1.5-1.6 s on both (fast,
+  // pub_torus_sunrise). A fit's result does not depend on its threads.
+  std::vector<Outcome> outcomes(static_cast<size_t>(o.restarts));
+  const int threads = omp_in_parallel() ? 1 : omp_get_max_threads();
+  if (!LaterRestartsWaitForFirst(nv, o)) {
+    // All from the start: the first restart (both models racing) beside the
+    // second, the third on the thread that finishes first.
+    const std::vector<char> later = LaterRestartModels(std::vector<char>(nv, 1), o);
+    if (model.bounce) PrepareAtomBounce(model, DictionaryAtoms(axes.size(), o.sharpness), axes, &atom_bounce);
+    RunSideBySide(o.restarts, threads, [&](int r) {
+      outcomes[static_cast<size_t>(r)] =
+          run_restart(r, r == 0 ? entered : later, r == 0 && o.carry_direct_into_bounce);
+    });
+  } else {
+    // The later restarts wait for the race the first decides; they share the
+    // atoms' bounce it computed (StartFit computes that only while it is not
+    // ready, so every model's first start must be the first restart's).
+    outcomes[0] = run_restart(0, entered, o.carry_direct_into_bounce);
+    const std::vector<char> later = LaterRestartModels(outcomes[0].racing, o);
+    // Carrying that did not pay in the first restart is not tried again
+    // (balanced: 1.05-1.08x the time on sunsky and the cone scene for nothing).
+    const bool carry_later = outcomes[0].carried;
+    SHADOWSG_CHECK(o.restarts == 1 || !model.bounce || atom_bounce.ready || !later[nv - 1]);
+    RunSideBySide(o.restarts - 1, threads, [&](int j) {
+      outcomes[static_cast<size_t>(j + 1)] = run_restart(j + 1, later, carry_later);
+    });
   }
-  for (int r = side_by_side + 1; r < o.restarts; ++r) outcomes[r - 1] = run_restart(r, entered, carry_later);
   for (Outcome& out : outcomes) keep(std::move(out));
   // Each model's restarts pooled: one more finished fit, judged with them.
   // A model's one fit pooled with its sharpness copies (pool_sharpness)

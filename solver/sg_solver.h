@@ -31,7 +31,9 @@
 //    that its shadow's edges make in the error.
 // 5. Restarts: steps 2-4 again on fresh fit pixels; the fit with the lowest
 //    error wins (or a smaller one within tolerance; step 8). Which local
-//    minimum the size path reaches depends on the pixels.
+//    minimum the size path reaches depends on the pixels. They run side by
+//    side, one thread each, the thread of one that is done lent to those
+//    left (solver/side_by_side.h).
 // 6. With the casters' bounce in the model (solver/caster_bounce.h) and
 //    choose_bounce: the fits with and without it race on the held-out set;
 //    the loser stops once clearly behind (BounceRaceDrops), the lower error
@@ -315,6 +317,16 @@ bool BounceRaceDrops(size_t steps, size_t other_steps, double best, double other
 // race, where later_restarts_bounce is on. The first restart's fits are
 // judged either way.
 std::vector<char> LaterRestartModels(const std::vector<char>& first_racing, const SgSolverOptions& o);
+
+// Whether the restarts after the first must wait for it, of `models` models
+// (1, or 2 where the fits with and without the bounce race): what they fit
+// (LaterRestartModels) and whether they carry a direct fit into the bounce
+// (carry_direct_into_bounce, kept only where the first restart's carry
+// paid) depend on its race unless later_restarts_bounce gives them the
+// bounce model alone. Where they need not wait, all restarts start side by
+// side: the first, which races both models, beside the second (balanced:
+// restarts done sooner, nothing else changed; solver/EXPERIMENTS.md, stop 64).
+bool LaterRestartsWaitForFirst(size_t models, const SgSolverOptions& o);
 
 
 

@@ -19,6 +19,17 @@ namespace {
 
 using testing::TestPlaneModel;
 
+// The solver runs here as under the CLI (MakeContext pins the same): Eigen's
+// blocking pinned and its own threading off. A product Eigen shares among
+// OpenMP threads rounds otherwise than on one, so a restart fitted on one
+// thread beside others and the same restart alone on two would differ.
+class EigenAsUnderTheCli : public ::testing::Environment {
+ public:
+  void SetUp() override { PinEigenBlocking(); }
+};
+const ::testing::Environment* const kEigenAsUnderTheCli =
+    ::testing::AddGlobalTestEnvironment(new EigenAsUnderTheCli);
+
 double Psnr(const std::vector<Eigen::Vector3f>& r, const std::vector<Eigen::Vector3f>& gt) {
   double se = 0, range = 0;
   for (size_t i = 0; i < gt.size(); ++i) {
@@ -849,6 +860,27 @@ TEST(SgSolver, LaterRestartsFitTheFirstRacesSurvivors) {
   o.close_race_to_bounce = true;
   EXPECT_EQ(LaterRestartModels(Models{1, 0}, o), (Models{1, 1}));
   EXPECT_EQ(LaterRestartModels(Models{1, 1}, o), (Models{1, 1}));
+}
+
+// The later restarts start beside the first where what they fit does not
+// depend on its race: one model, or the bounce model whatever the race.
+// Elsewhere they wait (they fit its survivors, and carry a direct fit into
+// the bounce only where its carry paid).
+TEST(SgSolver, LaterRestartsWaitForTheFirstOnlyWhereItsRaceDecides) {
+  SgSolverOptions o = SgSolverOptions::Budget("balanced");
+  EXPECT_FALSE(LaterRestartsWaitForFirst(2, o));
+  EXPECT_FALSE(LaterRestartsWaitForFirst(1, o));
+  // What each side fits agrees with LaterRestartModels: the same models for
+  // every race the first restart can end with.
+  using Models = std::vector<char>;
+  for (const Models& race : {Models{1, 0}, Models{0, 1}, Models{1, 1}})
+    EXPECT_EQ(LaterRestartModels(race, o), LaterRestartModels(Models{1, 1}, o));
+  o.later_restarts_bounce = false;
+  EXPECT_TRUE(LaterRestartsWaitForFirst(2, o));
+  EXPECT_FALSE(LaterRestartsWaitForFirst(1, o));
+  o.later_restarts_bounce = true;
+  o.bounce_race_once = false;  // every model again, and the first restart's carry decides the later ones'
+  EXPECT_TRUE(LaterRestartsWaitForFirst(2, o));
 }
 
 // Where the model with the bounce leaves the race of fast's one restart,
