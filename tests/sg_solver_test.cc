@@ -276,6 +276,44 @@ TEST(SgSolver, AnyThreadCountGivesTheSameFit) {
   }
 }
 
+// The same with the casters' bounce, where the models with and without it
+// race: fast's one restart on every thread, balanced's first restart (the
+// race) on one thread beside the second.
+TEST(SgSolver, AnyThreadCountGivesTheSameRace) {
+  ShadowPlaneModel model = SgTestModel(32);
+  model.normal = Eigen::Vector3d::UnitZ();
+  const std::vector<Eigen::Vector3f> targets = RenderShadowPlane(model, Cases()[1].truth);
+  testing::AddTestCasterBounce(&model);
+  const int saved_threads = omp_get_max_threads();
+  for (const char* budget : {"fast", "balanced"}) {
+    SgSolverOptions o = SgSolverOptions::Budget(budget);
+    o.fit_pixels = 400;
+    o.holdout_pixels = 200;
+    o.judge_pixels = 600;
+    o.seed = 3;
+    std::vector<SgLighting> fits;
+    std::vector<SgSolverSummary> summaries;
+    for (int threads : {1, 2, 3}) {
+      omp_set_num_threads(threads);
+      summaries.emplace_back();
+      fits.push_back(SolveSg(model, targets, o, &summaries.back()));
+    }
+    omp_set_num_threads(saved_threads);
+    // Both models started: a race was run.
+    ASSERT_EQ(summaries[0].bounce_race_entries.size(), 2u) << budget;
+    EXPECT_GE(summaries[0].bounce_race_entries[0], 1) << budget;
+    for (size_t t = 1; t < fits.size(); ++t) {
+      EXPECT_EQ(summaries[t].bounce_heldout_mse, summaries[0].bounce_heldout_mse) << budget << ", " << t + 1 << " threads";
+      EXPECT_EQ(summaries[t].restart_heldout_mse, summaries[0].restart_heldout_mse) << budget << ", " << t + 1;
+      ASSERT_EQ(fits[t].lobes.size(), fits[0].lobes.size()) << budget << ", " << t + 1 << " threads";
+      for (size_t j = 0; j < fits[0].lobes.size(); ++j) {
+        EXPECT_EQ(fits[t].lobes[j].axis, fits[0].lobes[j].axis) << budget << ", " << t + 1 << " threads, lobe " << j;
+        EXPECT_EQ(fits[t].lobes[j].amplitude, fits[0].lobes[j].amplitude) << budget << ", lobe " << j;
+      }
+    }
+  }
+}
+
 // With a choice of fits, the judging set (held-out pixels and every pixel no
 // restart fitted, here) picks: the kept fit is the best on it, or a smaller
 // one within tolerance. judge_pixels = 0 leaves the choice to the held-out set.
