@@ -19,17 +19,6 @@ namespace {
 
 using testing::TestPlaneModel;
 
-// The solver runs here as under the CLI (MakeContext pins the same): Eigen's
-// blocking pinned and its own threading off. A product Eigen shares among
-// OpenMP threads rounds otherwise than on one, so a restart fitted on one
-// thread beside others and the same restart alone on two would differ.
-class EigenAsUnderTheCli : public ::testing::Environment {
- public:
-  void SetUp() override { PinEigenBlocking(); }
-};
-const ::testing::Environment* const kEigenAsUnderTheCli =
-    ::testing::AddGlobalTestEnvironment(new EigenAsUnderTheCli);
-
 double Psnr(const std::vector<Eigen::Vector3f>& r, const std::vector<Eigen::Vector3f>& gt) {
   double se = 0, range = 0;
   for (size_t i = 0; i < gt.size(); ++i) {
