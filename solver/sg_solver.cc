@@ -893,6 +893,11 @@ std::vector<char> LaterRestartModels(const std::vector<char>& first_racing, cons
 
 SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3f>& targets,
                    const SgSolverOptions& o, SgSolverSummary* summary, const ProgressFn& progress) {
+  // A fit must not depend on its threads: restarts side by side widen their
+  // loops when threads are lent, at moments the machine's load decides, and
+  // a product Eigen shares among threads rounds otherwise than on one.
+  // PinEigenBlocking (the CLI's context, the tests' main) turns that off.
+  SHADOWSG_CHECK(Eigen::nbThreads() == 1);
   const auto start = Clock::now();
   std::mt19937_64 rng(o.seed);
   const HeldOut ho = SampleHoldout(model.points.size(), o, rng);

@@ -354,6 +354,8 @@ Eigen::MatrixXf DictionaryAngles(const ShadowPlaneModel& fit, const std::vector<
                                  const std::vector<double>& sharpness);
 
 // `model` must use CosineModel::kExact for the fit to match its renders.
+// Eigen's own threading must be off (PinEigenBlocking, solver/eigen_blocking.h;
+// the CLI's context does it): checked.
 SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3f>& targets,
                    const SgSolverOptions& options, SgSolverSummary* summary, const ProgressFn& progress = {});
 
