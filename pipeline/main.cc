@@ -34,8 +34,9 @@ void KeepFreedMemory() {
 // Even kept, each page is faulted in once: a solve touches 200-350 MB, about
 // 40000-90000 faults of 4 KB pages, 6 % of a balanced solve's CPU time in
 // perf on the development VM. In 2 MB pages (transparent huge pages, which
-// Debian's kernels give where a program asks: `madvise`) a fast solve took
-// 0.88x the time, a balanced one 0.94x (solver/EXPERIMENTS.md, stop 64).
+// Debian's kernels give where a program asks: `madvise`) fast solves took
+// 0.85-0.92x the time, balanced ones 0.91x, with the same results (paired,
+// 3 seeds x 8 scenes; solver/EXPERIMENTS.md, stop 64).
 // The heap is grown by 1 GB at once (address space only; pages come as they
 // are touched) and that span is asked for huge pages, and every thread
 // allocates from it (one arena: the others would be mapped apart, in 4 KB

@@ -13,9 +13,9 @@ namespace shadowsg {
 namespace {
 
 struct Lending {
-  int threads = 1;           // in all
+  int threads = 1;              // in all
   std::atomic<int> workers{1};  // threads that run jobs: at most one a job
-  std::atomic<int> done{0};  // workers with no job left
+  std::atomic<int> done{0};     // workers with no job left
 };
 
 // The lending of the job running on this thread (none outside a job).
