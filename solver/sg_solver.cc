@@ -4,7 +4,6 @@
 #include <array>
 #include <chrono>
 #include <cmath>
-#include <exception>
 #include <numeric>
 #include <random>
 
@@ -635,7 +634,6 @@ bool StepFit(FitRun* run, const SgSolverOptions& o) {
 }
 
 FitResult FinishFit(FitRun&& run, double signal, const SgSolverOptions& o) {
-  TakeLentThreads();
   while (StepFit(&run, o)) {
   }
   SgSolverSummary& sum = run.sum;
@@ -879,9 +877,6 @@ bool BounceRaceDrops(size_t steps, size_t other_steps, double best, double other
   return paths_ended && best > kEndMargin * other_best;
 }
 
-bool LaterRestartsWaitForFirst(size_t models, const SgSolverOptions& o) {
-  return models == 2 && !(o.bounce_race_once && o.later_restarts_bounce);
-}
 
 std::vector<char> LaterRestartModels(const std::vector<char>& first_racing, const SgSolverOptions& o) {
   if (!o.bounce_race_once) return std::vector<char>(first_racing.size(), 1);
@@ -889,6 +884,15 @@ std::vector<char> LaterRestartModels(const std::vector<char>& first_racing, cons
   std::vector<char> later = first_racing;
   if (o.close_race_to_bounce && later.size() == 2 && later[0] && later[1]) later[0] = 0;
   return later;
+}
+
+bool LaterRestartsWaitForFirst(size_t models, const SgSolverOptions& o) {
+  if (models < 2) return false;
+  const std::vector<char> later = LaterRestartModels({1, 1}, o);
+  for (const std::vector<char>& race : {std::vector<char>{1, 0}, std::vector<char>{0, 1}})
+    if (LaterRestartModels(race, o) != later) return true;
+  // A direct model in the later restarts carries only where the first's carry paid.
+  return later[0] && o.carry_direct_into_bounce;
 }
 
 SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vector3f>& targets,
@@ -930,7 +934,7 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   std::vector<FitData> sets(static_cast<size_t>(o.restarts));
   // A model that clearly lost the first restart's race (BounceRaceDrops) is
   // not fitted again (LaterRestartModels).
-  std::vector<char> entered(nv, 1);
+  const std::vector<char> entered(nv, 1);
   std::vector<int> entries(nv, 0);
   AtomBounce atom_bounce;
   // Every restart's draw first (the draws alone use rng, in restart order).
@@ -1039,7 +1043,7 @@ SgLighting SolveSg(const ShadowPlaneModel& model, const std::vector<Eigen::Vecto
   if (!LaterRestartsWaitForFirst(nv, o)) {
     // All from the start: the first restart (both models racing) beside the
     // second, the third on the thread that finishes first.
-    const std::vector<char> later = LaterRestartModels(std::vector<char>(nv, 1), o);
+    const std::vector<char> later = LaterRestartModels(entered, o);
     if (model.bounce) PrepareAtomBounce(model, DictionaryAtoms(axes.size(), o.sharpness), axes, &atom_bounce);
     RunSideBySide(o.restarts, threads, [&](int r) {
       outcomes[static_cast<size_t>(r)] =

@@ -319,11 +319,12 @@ bool BounceRaceDrops(size_t steps, size_t other_steps, double best, double other
 std::vector<char> LaterRestartModels(const std::vector<char>& first_racing, const SgSolverOptions& o);
 
 // Whether the restarts after the first must wait for it, of `models` models
-// (1, or 2 where the fits with and without the bounce race): what they fit
-// (LaterRestartModels) and whether they carry a direct fit into the bounce
-// (carry_direct_into_bounce, kept only where the first restart's carry
-// paid) depend on its race unless later_restarts_bounce gives them the
-// bounce model alone. Where they need not wait, all restarts start side by
+// (1, or 2 where the fits with and without the bounce race): where what
+// they fit (LaterRestartModels) depends on its race, or where they fit the
+// direct model and would carry it into the bounce (carry_direct_into_bounce,
+// kept only where the first restart's carry paid). With
+// later_restarts_bounce they fit the bounce model alone and need not wait.
+// Where they need not wait, all restarts start side by
 // side: the first, which races both models, beside the second (balanced:
 // restarts done sooner, nothing else changed; solver/EXPERIMENTS.md, stop 64).
 bool LaterRestartsWaitForFirst(size_t models, const SgSolverOptions& o);
