@@ -146,9 +146,9 @@ void RefineCost::UpdateBounce(const std::vector<Eigen::Vector3d>& axes, const st
         }
       }
     } else {
-      const std::array<Eigen::MatrixXf, 3> b = BounceLobeShadingRgb(model_, irradiance);
+      const Eigen::MatrixXf b = BounceLobeShadingRgb(model_, irradiance);
       for (long s = 0; s < ns; ++s)
-        for (int ch = 0; ch < 3; ++ch) cache_[stale[s]].bounce[ch] = b[ch].col(s);
+        for (int ch = 0; ch < 3; ++ch) cache_[stale[s]].bounce[ch] = b.col(ch * ns + s);
     }
     for (long s = 0; s < ns; ++s) cache_[stale[s]].ground_hints = std::move(ground_hints[s]);
   }
@@ -169,11 +169,11 @@ void RefineCost::UpdateBounce(const std::vector<Eigen::Vector3d>& axes, const st
   }
   if (!no_dbounce.empty()) {
     const auto [a, l] = Pick(axes, lambda, no_dbounce, kStep);
-    const std::array<Eigen::MatrixXf, 3> b = BounceLobeShadingRgb(model_, BounceIrradiance(model_, a, l));
-    for (size_t s = 0; s < no_dbounce.size(); ++s) {
-      LobeCache& c = cache_[no_dbounce[s]];
-      for (int ch = 0; ch < 3; ++ch)
-        c.dbounce[ch] = (b[ch].col(static_cast<long>(s)) - c.bounce[ch]) / static_cast<float>(kStep);
+    const Eigen::MatrixXf b = BounceLobeShadingRgb(model_, BounceIrradiance(model_, a, l));
+    const long nd = static_cast<long>(no_dbounce.size());
+    for (long s = 0; s < nd; ++s) {
+      LobeCache& c = cache_[no_dbounce[static_cast<size_t>(s)]];
+      for (int ch = 0; ch < 3; ++ch) c.dbounce[ch] = (b.col(ch * nd + s) - c.bounce[ch]) / static_cast<float>(kStep);
     }
   }
 }

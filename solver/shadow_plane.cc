@@ -235,7 +235,8 @@ Eigen::MatrixXd LobeShadingColumns::Weighted(const ShadowPlaneModel& model, cons
                                              int c) const {
   SHADOWSG_CHECK(weight.size() == model.points.size() && direct.rows() == static_cast<long>(weight.size()));
   const long rows = direct.rows(), cols = direct.cols();
-  const bool with_bounce = bounce[c].size() > 0;
+  const bool with_bounce = bounce.size() > 0;
+  SHADOWSG_CHECK(!with_bounce || (bounce.rows() == rows && bounce.cols() == 3 * cols));
   Eigen::VectorXd row_scale(rows);
   for (long k = 0; k < rows; ++k) row_scale[k] = std::sqrt(weight[k]) * model.albedo[k][c] / M_PI;
   // Column by column on the threads: the scan's few hundred candidates
@@ -244,7 +245,7 @@ Eigen::MatrixXd LobeShadingColumns::Weighted(const ShadowPlaneModel& model, cons
 #pragma omp parallel for schedule(static) if (rows * cols > 65536)
   for (long j = 0; j < cols; ++j)
     for (long k = 0; k < rows; ++k)
-      out(k, j) = row_scale[k] * static_cast<double>(with_bounce ? direct(k, j) + bounce[c](k, j) : direct(k, j));
+      out(k, j) = row_scale[k] * static_cast<double>(with_bounce ? direct(k, j) + bounce(k, c * cols + j) : direct(k, j));
   return out;
 }
 
@@ -258,11 +259,8 @@ Eigen::MatrixXf BouncePatchRadianceRgb(const ShadowPlaneModel& model, const std:
   return radiance;
 }
 
-std::array<Eigen::MatrixXf, 3> BounceLobeShadingRgb(const ShadowPlaneModel& model,
-                                                    const std::array<Eigen::MatrixXf, 3>& irradiance) {
-  const long nl = irradiance[0].cols();
-  const Eigen::MatrixXf all = GatherBounce(model, BouncePatchRadianceRgb(model, irradiance));
-  return {all.leftCols(nl), all.middleCols(nl, nl), all.rightCols(nl)};
+Eigen::MatrixXf BounceLobeShadingRgb(const ShadowPlaneModel& model, const std::array<Eigen::MatrixXf, 3>& irradiance) {
+  return GatherBounce(model, BouncePatchRadianceRgb(model, irradiance));
 }
 
 namespace {

@@ -131,10 +131,12 @@ std::array<Eigen::MatrixXf, 3> BounceIrradiance(const ShadowPlaneModel& model, c
 
 // The bounce's shading of each lobe at the model's points (points x lobes),
 // per unit amplitude and unit plane albedo/pi, averaged over the channels,
-// from BounceIrradiance's result; and per channel.
+// from BounceIrradiance's result; and per channel (points x 3 lobes, in
+// BouncePatchRadianceRgb's column order). The channels stay in the one
+// product's result: split into three matrices they doubled the largest
+// allocation of a solve (a grid search's 441 candidates: 32 MB a copy).
 Eigen::MatrixXf BounceLobeShading(const ShadowPlaneModel& model, const std::array<Eigen::MatrixXf, 3>& irradiance);
-std::array<Eigen::MatrixXf, 3> BounceLobeShadingRgb(const ShadowPlaneModel& model,
-                                                    const std::array<Eigen::MatrixXf, 3>& irradiance);
+Eigen::MatrixXf BounceLobeShadingRgb(const ShadowPlaneModel& model, const std::array<Eigen::MatrixXf, 3>& irradiance);
 // What BounceLobeShadingRgb gathers: the patches' radiance per unit amplitude
 // (patches x 3 lobes; channel c's lobes in columns [c lobes, (c + 1) lobes)).
 Eigen::MatrixXf BouncePatchRadianceRgb(const ShadowPlaneModel& model, const std::array<Eigen::MatrixXf, 3>& irradiance);
@@ -146,7 +148,7 @@ Eigen::MatrixXf BouncePatchRadianceRgb(const ShadowPlaneModel& model, const std:
 // solvers' amplitude NNLS works on.
 struct LobeShadingColumns {
   Eigen::MatrixXf direct;                 // points x lobes
-  std::array<Eigen::MatrixXf, 3> bounce;  // per channel; empty without the bounce
+  Eigen::MatrixXf bounce;  // points x 3 lobes (BounceLobeShadingRgb); empty without the bounce
   Eigen::MatrixXd Weighted(const ShadowPlaneModel& model, const std::vector<double>& weight, int c) const;
 };
 // bounce_irradiance (optional): BounceIrradiance of these lobes, which does

@@ -396,5 +396,45 @@ TEST(CasterBounce, TheDirectFitsJoinTheBounceModelsPool) {
   EXPECT_EQ(across.bounce_race_entries, apart.bounce_race_entries);
 }
 
+// The amplitude systems' columns (LobeColumns, Weighted per channel) hold
+// each lobe's render at unit amplitude, channel by channel: the bounce's
+// channels sit side by side in one matrix, and a column taken from the
+// wrong channel would miss the orange sphere's tint.
+TEST(CasterBounce, LobeColumnsAreEachChannelsRender) {
+  shadowsg::testing::TempDir tmp;
+  const fs::path direct = SynthScene(tmp, "direct", TwoCasterSpec(0));
+  const ShadowPlaneModel model = ModelWithBounce(direct).first;
+  ASSERT_TRUE(model.bounce);
+  const std::vector<SgLobe> lobes = {{Eigen::Vector3d(0.7, -0.3, 0.45).normalized(), 300, Eigen::Vector3d::Ones()},
+                                     {Eigen::Vector3d(-0.2, 0.5, 0.8).normalized(), 4, Eigen::Vector3d::Ones()},
+                                     {Eigen::Vector3d(0, 0, 1), 0.5, Eigen::Vector3d::Ones()}};
+  std::vector<Eigen::Vector3d> axes;
+  std::vector<double> sharpness;
+  SplitLobes(lobes, &axes, &sharpness);
+  const LobeShadingColumns columns = LobeColumns(model, axes, sharpness);
+  const std::vector<double> unit(model.points.size(), 1.0);
+  double largest_tint = 0;
+  for (size_t j = 0; j < lobes.size(); ++j) {
+    SgLighting one;
+    one.lobes = {lobes[j]};
+    const std::vector<Eigen::Vector3f> render = RenderShadowPlane(model, one);
+    double scale = 0;
+    for (const Eigen::Vector3f& r : render) scale = std::max(scale, static_cast<double>(r.maxCoeff()));
+    for (int c = 0; c < 3; ++c) {
+      const Eigen::MatrixXd w = columns.Weighted(model, unit, c);
+      double worst = 0;
+      for (size_t k = 0; k < render.size(); ++k)
+        worst = std::max(worst, std::abs(w(static_cast<long>(k), static_cast<long>(j)) - render[k][c]));
+      EXPECT_LT(worst, 1e-4 * scale) << "lobe " << j << ", channel " << c;
+    }
+    // The bounce's tint: its red and blue parts differ where the sphere lights the plane.
+    for (size_t k = 0; k < render.size(); ++k) {
+      const long row = static_cast<long>(k), col = static_cast<long>(j), nl = static_cast<long>(lobes.size());
+      largest_tint = std::max(largest_tint, static_cast<double>(std::abs(columns.bounce(row, col) - columns.bounce(row, 2 * nl + col))));
+    }
+  }
+  EXPECT_GT(largest_tint, 0.0);
+}
+
 }  // namespace
 }  // namespace shadowsg
