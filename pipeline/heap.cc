@@ -38,12 +38,15 @@ void KeepFreedMemory() {
 // pages). Past the span the heap grows as before. glibc's own switch for
 // this (the glibc.malloc.hugetlb tunable) is read only at start-up, from the
 // environment.
-size_t AskHugePagesForTheHeap() {
-#if defined(__GLIBC__)
+bool KernelGivesHugePagesOnRequest() {
   std::ifstream policy("/sys/kernel/mm/transparent_hugepage/enabled");
   std::string line;
-  // `always` gives them without asking; `never` not at all.
-  if (!std::getline(policy, line) || line.find("[madvise]") == std::string::npos) return 0;
+  return std::getline(policy, line) && line.find("[madvise]") != std::string::npos;
+}
+
+size_t AskHugePagesForTheHeap() {
+#if defined(__GLIBC__)
+  if (!KernelGivesHugePagesOnRequest()) return 0;
   constexpr size_t kSpan = size_t{1} << 30, kHugePage = size_t{2} << 20;
   mallopt(M_ARENA_MAX, 1);
   // Never trimmed: at KeepFreedMemory's 1 GB threshold the first free that

@@ -9,6 +9,11 @@ namespace shadowsg {
 // no trimming below 1 GB).
 void KeepFreedMemory();
 
+// Whether the kernel gives transparent huge pages where a program asks
+// (policy `madvise`, Debian's default; `always` gives them unasked, `never`
+// not at all).
+bool KernelGivesHugePagesOnRequest();
+
 // Where the kernel gives transparent huge pages on request (`madvise`):
 // every thread allocates from one heap, grown by 1 GB of address space at
 // once, advised MADV_HUGEPAGE and never trimmed. Returns the bytes advised (0: none, e.g.

@@ -877,7 +877,6 @@ bool BounceRaceDrops(size_t steps, size_t other_steps, double best, double other
   return paths_ended && best > kEndMargin * other_best;
 }
 
-
 std::vector<char> LaterRestartModels(const std::vector<char>& first_racing, const SgSolverOptions& o) {
   if (!o.bounce_race_once) return std::vector<char>(first_racing.size(), 1);
   if (o.later_restarts_bounce && first_racing.size() == 2) return {0, 1};

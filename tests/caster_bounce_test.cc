@@ -430,7 +430,8 @@ TEST(CasterBounce, LobeColumnsAreEachChannelsRender) {
     // The bounce's tint: its red and blue parts differ where the sphere lights the plane.
     for (size_t k = 0; k < render.size(); ++k) {
       const long row = static_cast<long>(k), col = static_cast<long>(j), nl = static_cast<long>(lobes.size());
-      largest_tint = std::max(largest_tint, static_cast<double>(std::abs(columns.bounce(row, col) - columns.bounce(row, 2 * nl + col))));
+      const float red = columns.bounce(row, col), blue = columns.bounce(row, 2 * nl + col);
+      largest_tint = std::max(largest_tint, static_cast<double>(std::abs(red - blue)));
     }
   }
   EXPECT_GT(largest_tint, 0.0);

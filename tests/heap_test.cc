@@ -30,12 +30,6 @@ constexpr bool kOwnAllocator = false;
 constexpr bool kOwnAllocator = false;
 #endif
 
-bool KernelGivesHugePagesOnRequest() {
-  std::ifstream policy("/sys/kernel/mm/transparent_hugepage/enabled");
-  std::string line;
-  return std::getline(policy, line) && line.find("[madvise]") != std::string::npos;
-}
-
 // The mappings of this process advised for huge pages ("hg" among the
 // VmFlags of /proc/self/smaps): [begin, end) each.
 std::vector<std::pair<uintptr_t, uintptr_t>> AdvisedMappings() {
