@@ -323,4 +323,19 @@ void RefineCost::Evaluate(const std::vector<SgLobe>& lobes, Eigen::MatrixX3d* re
   }
 }
 
+std::vector<OccluderCones::AngleHints> NearestAxisHints(const std::vector<SgLobe>& lobes,
+                                                        const std::vector<SgLobe>& from,
+                                                        const std::vector<OccluderCones::AngleHints>& from_hints) {
+  std::vector<OccluderCones::AngleHints> hints(lobes.size());
+  if (from_hints.size() != from.size()) return hints;
+  for (size_t i = 0; i < lobes.size(); ++i) {
+    double nearest = -2;
+    for (size_t j = 0; j < from.size(); ++j) {
+      const double c = lobes[i].axis.normalized().dot(from[j].axis.normalized());
+      if (c > nearest) nearest = c, hints[i] = from_hints[j];
+    }
+  }
+  return hints;
+}
+
 }  // namespace shadowsg

@@ -133,4 +133,14 @@ class RefineCost {
   mutable std::vector<LobeCache> cache_;
 };
 
+// Search hints for `lobes` from those learnt for the lobes `from` over the
+// same points (from_hints, one per lobe of `from`): each lobe takes the
+// hints of the lobe of `from` nearest its axis; none where `from` has none.
+// A hint bounds theta for any axis by the angle between that axis and its
+// own, so another lobe's hints are sound, and the nearer it is, the more
+// searches it skips (a fit's final refinement starts from its size path's).
+std::vector<OccluderCones::AngleHints> NearestAxisHints(const std::vector<SgLobe>& lobes,
+                                                        const std::vector<SgLobe>& from,
+                                                        const std::vector<OccluderCones::AngleHints>& from_hints);
+
 }  // namespace shadowsg

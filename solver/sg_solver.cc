@@ -670,14 +670,26 @@ FitResult FinishFit(FitRun&& run, double signal, const SgSolverOptions& o) {
     held = h;
     ++sum.scan_moves;
   }
-  sum.fit_mse_selected = WeightedMse(fit_model, lighting, d.weight, d.targets);
-
-  // Final joint refinement of the chosen model.
+  // Final joint refinement of the chosen model, its searches started from
+  // the size path's last hints (NearestAxisHints).
   const auto t0 = Clock::now();
-  sum.refine_iterations =
-      RefineLobes(fit_model, d.weight, d.targets, o.refine_iterations, &lighting, &run.progress).iterations;
+  std::vector<OccluderCones::AngleHints> hints = NearestAxisHints(lighting.lobes, run.lighting.lobes, run.hints);
+  const size_t chosen_lobes = lighting.lobes.size();
+  const RefineLmSummary lm =
+      RefineLobes(fit_model, d.weight, d.targets, o.refine_iterations, &lighting, &run.progress, &hints);
+  sum.refine_iterations = lm.iterations;
   sum.refine_seconds = Since(t0);
-  sum.fit_mse_refined = WeightedMse(fit_model, lighting, d.weight, d.targets);
+  // The fit errors for the report, from LM's own costs (1/2 the weighted
+  // squared residuals) where it evaluated the model as it ends; else rendered.
+  double weight_sum = 0;
+  for (double w : d.weight) weight_sum += w;
+  const bool evaluated = lm.iterations > 0;
+  // (Unevaluated, LM left the model as it was chosen.)
+  sum.fit_mse_selected = evaluated ? 2 * lm.initial_cost / (3 * weight_sum)
+                                   : WeightedMse(fit_model, lighting, d.weight, d.targets);
+  sum.fit_mse_refined = evaluated && lighting.lobes.size() == chosen_lobes
+                            ? 2 * lm.final_cost / (3 * weight_sum)
+                            : WeightedMse(fit_model, lighting, d.weight, d.targets);
   sum.invalid_lobes_removed = RemoveInvalidLobes(&lighting);
   sum.lobes_kept = static_cast<int>(lighting.lobes.size());
   FitResult r;

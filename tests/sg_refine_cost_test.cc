@@ -211,6 +211,35 @@ TEST(RefineCost, CachedShadingMatchesAFreshCost) {
   }
 }
 
+// Each lobe takes the hints of the lobe nearest its axis, and a cost started
+// from them evaluates as a fresh one does, whichever lobe's hints it got:
+// the sun turned 2 degrees and the lobes listed the other way round.
+TEST(RefineCost, NearestAxisHintsAreSoundForMovedLobes) {
+  CostInputs in(false, 1.0);
+  in.model.PrepareCones();
+  const auto start = Lobes();
+  const RefineCost learnt = in.Cost(false);
+  Residuals(learnt, start);
+  const std::vector<OccluderCones::AngleHints> from = {learnt.Hints(0), learnt.Hints(1)};
+  ASSERT_EQ(from[0].axes.size(), 1u);
+  std::vector<SgLobe> moved = {start[1], start[0]};
+  moved[1].axis = (moved[1].axis + 0.035 * Eigen::Vector3d(1, 1, 0)).normalized();
+  const std::vector<OccluderCones::AngleHints> hints = NearestAxisHints(moved, start, from);
+  ASSERT_EQ(hints.size(), 2u);
+  EXPECT_EQ(hints[0].axes, from[1].axes);
+  EXPECT_EQ(hints[1].axes, from[0].axes);
+  EXPECT_EQ(hints[1].leaf, from[0].leaf);
+  EXPECT_TRUE(NearestAxisHints(moved, start, {}).at(0).axes.empty());
+  const std::vector<double> fresh = Residuals(in.Cost(false), moved);
+  for (bool swapped : {false, true}) {
+    SCOPED_TRACE(swapped ? "each lobe the other's hints" : "nearest hints");
+    RefineCost hinted = in.Cost(false);
+    hinted.SetHints(0, hints[swapped ? 1 : 0]);
+    hinted.SetHints(1, hints[swapped ? 0 : 1]);
+    EXPECT_LT(Distance(Residuals(hinted, moved), fresh), 1e-6 * Norm(fresh));
+  }
+}
+
 // CostExceeds says yes only where the full cost is above the limit: a step
 // far off (the sun turned 25 degrees, the sky 20x brighter) is shown more
 // costly than the start on a sample of the points, no limit at or above a
