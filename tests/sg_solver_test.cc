@@ -836,6 +836,19 @@ TEST(SgSolver, OnlyBestBudgetRunsTheGridSearch) {
   EXPECT_EQ(SgSolverOptions::Budget("best").scan_rounds, 1);
 }
 
+// Balanced's three pooled fits take four LM iterations a path step and are
+// judged on 8000 pixels (solver/EXPERIMENTS.md, stop 66); fast's one fit and
+// best keep six and 16000.
+TEST(SgSolver, BalancedBudgetTakesShorterPathSteps) {
+  const SgSolverOptions fast = SgSolverOptions::Budget("fast"), balanced = SgSolverOptions::Budget("balanced"),
+                        best = SgSolverOptions::Budget("best");
+  EXPECT_EQ(fast.path_refine_iterations, 6);
+  EXPECT_EQ(balanced.path_refine_iterations, 4);
+  EXPECT_EQ(best.path_refine_iterations, 6);
+  EXPECT_EQ(balanced.judge_pixels, 8000);
+  EXPECT_EQ(best.judge_pixels, 16000);
+}
+
 // A clear loser stops after two steps, a close one only after four at 2x
 // (1.1x for the model without the bounce); neither before the other model
 // has taken as many steps.
