@@ -328,12 +328,12 @@ std::vector<OccluderCones::AngleHints> NearestAxisHints(const std::vector<SgLobe
                                                         const std::vector<OccluderCones::AngleHints>& from_hints) {
   std::vector<OccluderCones::AngleHints> hints(lobes.size());
   if (from_hints.size() != from.size()) return hints;
-  for (size_t i = 0; i < lobes.size(); ++i) {
-    double nearest = -2;
-    for (size_t j = 0; j < from.size(); ++j) {
-      const double c = lobes[i].axis.normalized().dot(from[j].axis.normalized());
-      if (c > nearest) nearest = c, hints[i] = from_hints[j];
-    }
+  for (size_t i = 0; i < lobes.size() && !from.empty(); ++i) {
+    const Eigen::Vector3d axis = lobes[i].axis.normalized();
+    size_t nearest = 0;
+    for (size_t j = 1; j < from.size(); ++j)
+      if (axis.dot(from[j].axis.normalized()) > axis.dot(from[nearest].axis.normalized())) nearest = j;
+    hints[i] = from_hints[nearest];  // one copy: a lobe's hints are 12 bytes a point
   }
   return hints;
 }

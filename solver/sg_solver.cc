@@ -689,16 +689,18 @@ FitResult FinishFit(FitRun&& run, double signal, const SgSolverOptions& o) {
   sum.refine_iterations = lm.iterations;
   sum.refine_seconds = Since(t0);
   // The fit errors for the report, from LM's own costs (1/2 the weighted
-  // squared residuals) where it evaluated the model as it ends; else rendered.
-  double weight_sum = 0;
-  for (double w : d.weight) weight_sum += w;
-  const bool evaluated = lm.iterations > 0;
-  // (Unevaluated, LM left the model as it was chosen.)
-  sum.fit_mse_selected = evaluated ? 2 * lm.initial_cost / (3 * weight_sum)
-                                   : WeightedMse(fit_model, lighting, d.weight, d.targets);
-  sum.fit_mse_refined = evaluated && lighting.lobes.size() == chosen_lobes
-                            ? 2 * lm.final_cost / (3 * weight_sum)
-                            : WeightedMse(fit_model, lighting, d.weight, d.targets);
+  // squared residuals: WeightedMse is 2 f / (3 sum w)); rendered where LM
+  // did not evaluate (the model then is as chosen) or dropped a lobe after.
+  if (lm.iterations > 0) {
+    double weight_sum = 0;
+    for (double w : d.weight) weight_sum += w;
+    const double per_cost = 2 / (3 * weight_sum);
+    sum.fit_mse_selected = per_cost * lm.initial_cost;
+    sum.fit_mse_refined = lighting.lobes.size() == chosen_lobes ? per_cost * lm.final_cost
+                                                                : WeightedMse(fit_model, lighting, d.weight, d.targets);
+  } else {
+    sum.fit_mse_selected = sum.fit_mse_refined = WeightedMse(fit_model, lighting, d.weight, d.targets);
+  }
   sum.invalid_lobes_removed = RemoveInvalidLobes(&lighting);
   sum.lobes_kept = static_cast<int>(lighting.lobes.size());
   FitResult r;
